@@ -1,0 +1,20 @@
+/* The marching kernel for x86-64 CPUs with AVX2 and FMA, chosen at run time (render.c). */
+#if defined(__x86_64__) || defined(_M_X64)
+#if defined(__GNUC__)
+#pragma GCC target("avx2,fma")
+#endif
+#include "simd_avx2.h"
+#define KERNEL_SUFFIX _avx2
+#include "kernel.h"
+#else
+/* Other architectures: the portable kernel is the only one. */
+#include "scene.h"
+void ub_render_tile_avx2(const ub_scene *s, int a, int b, int c, int d, ub_counters *k)
+{
+    ub_render_tile_portable(s, a, b, c, d, k);
+}
+void ub_estimate_avx2(const ub_object *o, const float *x, size_t n, float *e, float *i)
+{
+    ub_estimate_portable(o, x, n, e, i);
+}
+#endif

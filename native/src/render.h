@@ -1,0 +1,29 @@
+#ifndef UNBOUND_RENDER_H
+#define UNBOUND_RENDER_H
+#include "scene.h"
+
+typedef enum { UB_ISA_AUTO = 0, UB_ISA_AVX2, UB_ISA_PORTABLE } ub_isa;
+
+typedef struct {
+    int threads;     /* 0: one per CPU */
+    int tile_size;   /* pixels per tile side */
+    ub_isa isa;
+    /* Called on the calling thread every poll_interval_ns with the fraction done; a non-zero
+     * return cancels the render. May be NULL. */
+    int (*poll)(void *data, double fraction);
+    void *poll_data;
+    long poll_interval_ns;
+} ub_render_options;
+
+typedef struct {
+    ub_counters counters;
+    double seconds;
+    int threads;
+    const char *isa;
+    int cancelled;
+} ub_render_stats;
+
+int ub_cpu_count(void);
+/* Returns NULL on success or an error message (nothing rendered). */
+const char *ub_render(const ub_scene *scene, const ub_render_options *opt, ub_render_stats *stats);
+#endif

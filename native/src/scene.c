@@ -1,0 +1,126 @@
+/* Per-object set-up: the slice of eq. 5-6, the bounding ball of section 3.4, transforms. */
+#include "scene.h"
+#include "quat.h"
+
+#include <math.h>
+#include <string.h>
+
+const char *const ub_pass_names[UB_PASS_COUNT] = {
+    "combined", "alpha", "depth", "normal", "position", "iterations", "steps", "distance",
+};
+const int ub_pass_channels[UB_PASS_COUNT] = {4, 1, 1, 3, 3, 1, 1, 1};
+
+static double det3(const double m[3][3])
+{
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+         - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+/* Smallest eigenvalue of a symmetric positive semi-definite 3x3 matrix (closed form). */
+static double min_eigenvalue_sym3(const double a[3][3])
+{
+    double p1 = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+    if (p1 == 0.0)
+        return fmin(a[0][0], fmin(a[1][1], a[2][2]));
+    double q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+    double p2 = (a[0][0] - q) * (a[0][0] - q) + (a[1][1] - q) * (a[1][1] - q)
+              + (a[2][2] - q) * (a[2][2] - q) + 2.0 * p1;
+    double p = sqrt(p2 / 6.0);
+    double b[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            b[i][j] = (a[i][j] - (i == j ? q : 0.0)) / p;
+    double r = det3(b) / 2.0;
+    double phi = r <= -1.0 ? M_PI / 3.0 : (r >= 1.0 ? 0.0 : acos(r) / 3.0);
+    /* The three roots are q + 2p cos(phi + 2k pi/3); k = 1 gives the smallest. */
+    return q + 2.0 * p * cos(phi + 2.0 * M_PI / 3.0);
+}
+
+const char *ub_object_prepare(ub_object *obj, double theta, const double slice_basis[4][3],
+                              const double slice_origin[4], const double object_to_world[4][4])
+{
+    /* The slice basis must be orthonormal: distances measured in object space then equal
+     * distances in quaternion space, which the distance estimate is about. */
+    for (int a = 0; a < 3; a++)
+        for (int b = a; b < 3; b++) {
+            double dot = 0.0;
+            for (int r = 0; r < 4; r++)
+                dot += slice_basis[r][a] * slice_basis[r][b];
+            if (fabs(dot - (a == b ? 1.0 : 0.0)) > 1e-4)
+                return "slice_basis columns must be orthonormal 4-vectors";
+        }
+
+    /* Eq. 5-6: f_{mu,theta} = g o f_mu o g^-1 with g(z) = e^{i theta} z, so
+     * f^n_{mu,theta} = g o f^n_mu o g^-1. g is a linear isometry of R^4, hence
+     * |f^n_{mu,theta}(z)| = |f^n_mu(g^-1 z)| and likewise for the derivative: the rotated set is
+     * g(K_mu) and its distance estimate at z is the plain one at g^-1(z). We therefore fold
+     * g^-1 (left multiplication by e^{-i theta}) into the slice map once, and the kernels
+     * iterate plain z^2 + mu. theta is reduced modulo 2 pi so that 2 pi gives 0's exact bits. */
+    double th = fmod(theta, 2.0 * M_PI);
+    double g_inv[4] = {cos(th), -sin(th), 0.0, 0.0};
+    if (th == 0.0) { g_inv[0] = 1.0; g_inv[1] = 0.0; }
+    ub_quat_mul(g_inv, slice_origin, obj->slice_origin);
+    for (int c = 0; c < 3; c++) {
+        double col[4] = {slice_basis[0][c], slice_basis[1][c], slice_basis[2][c], slice_basis[3][c]};
+        double rot[4];
+        ub_quat_mul(g_inv, col, rot);
+        for (int r = 0; r < 4; r++)
+            obj->slice_basis[r][c] = rot[r];
+    }
+
+    /* Object <-> world. Blender hands us a 4x4 affine matrix; the last row must be 0 0 0 1. */
+    const double(*m)[4] = object_to_world;
+    if (m[3][0] != 0.0 || m[3][1] != 0.0 || m[3][2] != 0.0 || m[3][3] != 1.0)
+        return "object_to_world must be affine (last row 0, 0, 0, 1)";
+    double lin[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            lin[i][j] = m[i][j];
+    double det = det3(lin);
+    if (!isfinite(det) || fabs(det) < 1e-18)
+        return "object_to_world must be invertible (zero scale?)";
+    double inv[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+            inv[i][j] = (lin[i1][j1] * lin[i2][j2] - lin[i1][j2] * lin[i2][j1]) / det;
+        }
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            obj->object_to_world[i][j] = lin[i][j];
+            obj->world_to_object[i][j] = inv[i][j];
+        }
+        obj->object_to_world[i][3] = m[i][3];
+        obj->world_to_object[i][3] = -(inv[i][0] * m[0][3] + inv[i][1] * m[1][3] + inv[i][2] * m[2][3]);
+    }
+    double ata[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            ata[i][j] = lin[0][i] * lin[0][j] + lin[1][i] * lin[1][j] + lin[2][i] * lin[2][j];
+    double lmin = min_eigenvalue_sym3(ata);
+    obj->sigma_min = sqrt(fmax(lmin, 0.0));
+    if (!(obj->sigma_min > 1e-9))
+        return "object_to_world must be invertible (zero scale?)";
+
+    /* Section 3.4: a ball that provably contains K_mu. If |z| > R with R^2 - R - |mu| = 0 then
+     * |z^2 + mu| >= |z|^2 - |mu| > |z| and the orbit escapes, so K_mu lies in |z| <= R (g_theta
+     * preserves norms, so this holds for every theta). The slice q = O + B p cuts that 4-ball
+     * in a 3-ball around -B^T O of radius sqrt(R^2 - |O_perp|^2). */
+    double mu_norm = sqrt(ub_quat_norm2(obj->mu));
+    double radius4 = 0.5 * (1.0 + sqrt(1.0 + 4.0 * mu_norm));
+    double along[3], along2 = 0.0;
+    for (int c = 0; c < 3; c++) {
+        along[c] = 0.0;
+        for (int r = 0; r < 4; r++)
+            along[c] += obj->slice_basis[r][c] * obj->slice_origin[r];
+        along2 += along[c] * along[c];
+        obj->bound_center[c] = -along[c];
+    }
+    double perp2 = ub_quat_norm2(obj->slice_origin) - along2;
+    double r2 = radius4 * radius4 - fmax(perp2, 0.0);
+    obj->bound_radius = r2 >= 0.0 ? sqrt(r2) : -1.0;
+    /* An escape radius below R would call points of K_mu escaped; never use one. */
+    obj->bailout = fmax(obj->bailout, radius4);
+    return NULL;
+}

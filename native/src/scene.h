@@ -1,0 +1,137 @@
+/* Scene description shared by the binding, the set-up code and the SIMD kernels.
+ *
+ * Everything here is validated and precomputed once per render (in double precision) by
+ * scene.c and camera.c, so the kernels only read plain numbers. */
+#ifndef UNBOUND_SCENE_H
+#define UNBOUND_SCENE_H
+
+#include <stdint.h>
+#include <stddef.h>
+
+/* Hard limits: inputs outside them are rejected with a ValueError by the binding. */
+#define UB_MAX_IMAGE_SIZE 65536
+#define UB_MAX_ITERATIONS 10000
+#define UB_MAX_OBJECTS 64
+#define UB_MAX_THREADS 1024
+#define UB_MAX_BISECTION 64
+#define UB_MAX_MARCH_STEPS_LIMIT 1000000
+#define UB_MAX_BAILOUT 1.0e6
+
+/* Depth written for background pixels: the value Cycles writes into its Depth pass for a miss. */
+#define UB_BACKGROUND_DEPTH 1.0e10f
+
+/* Packet width of the marching kernels (8 rays: one AVX2 register of floats). */
+#define UB_LANES 8
+
+typedef enum { UB_EPSILON_PIXEL = 0, UB_EPSILON_FIXED = 1 } ub_epsilon_mode;
+
+typedef struct {
+    /* Full image (not the window) in pixels. */
+    int width, height;
+    int orthographic;
+    /* View space -> world: rotation columns and translation (the camera's matrix_world). */
+    double cam_to_world[3][4];
+    /* Inverse of the projection matrix (Blender's calc_matrix_camera), view space from NDC. */
+    double inv_projection[4][4];
+    /* Unit vector of the camera's viewing axis in world space (-Z of the camera). */
+    double forward[3];
+    double position[3];
+    /* World-space footprint of one pixel at ray distance t: footprint0 + footprint1 * t. */
+    double footprint0, footprint1;
+} ub_camera;
+
+typedef enum { UB_KIND_QUATERNION_JULIA = 0 } ub_fractal_kind;
+
+typedef struct {
+    ub_fractal_kind kind;
+    /* Iterated map f(z) = z^2 + mu over the quaternions (eq. 1-4). */
+    double mu[4];
+    int max_iterations;
+    double bailout;            /* effective escape radius: max(user bailout, bounding radius) */
+    /* Object-space point p -> quaternion q = slice_origin + slice_basis * p, with the theta
+     * rotation of eq. 5-6 already folded in (see scene.c). Columns of slice_basis are orthonormal. */
+    double slice_origin[4];
+    double slice_basis[4][3];
+    /* World -> object (affine 3x4) and object -> world (for normals and positions). */
+    double world_to_object[3][4];
+    double object_to_world[3][4];
+    /* Smallest singular value of the object->world linear part: a distance d in object space
+     * is at least d * sigma_min in world space, so steps scaled by it never overshoot even
+     * under non-uniform scale. */
+    double sigma_min;
+    /* Bounding ball of K_mu cut by the slice, in object space (centre, radius); radius < 0:
+     * the slice misses the set entirely. */
+    double bound_center[3];
+    double bound_radius;
+    ub_epsilon_mode epsilon_mode;
+    double epsilon;            /* fixed mode: object-space threshold */
+    double detail;             /* pixel mode: threshold = pixel footprint / detail */
+    double step_factor;        /* multiplies the distance estimate (<= 1 is conservative) */
+    double max_step;           /* world-space cap on one step (section 3.4) */
+    int max_steps;             /* cap on marching steps per ray */
+    int bisection_steps;       /* refinement of the hit between the last two samples */
+    float color[3];
+} ub_object;
+
+typedef enum {
+    UB_PASS_COMBINED = 0, /* RGBA */
+    UB_PASS_ALPHA,        /* coverage */
+    UB_PASS_DEPTH,        /* distance along the camera's view axis (Blender's Z) */
+    UB_PASS_NORMAL,       /* world-space unit normal */
+    UB_PASS_POSITION,     /* world-space hit position */
+    UB_PASS_ITERATIONS,   /* escape count at the hit */
+    UB_PASS_STEPS,        /* marching steps of the ray (every pixel, background included) */
+    UB_PASS_DISTANCE,     /* final distance estimate at the hit, world units */
+    UB_PASS_COUNT
+} ub_pass_id;
+
+extern const char *const ub_pass_names[UB_PASS_COUNT];
+extern const int ub_pass_channels[UB_PASS_COUNT];
+
+typedef struct {
+    /* Window of the full image covered by the buffers: pixels [x0, x0+w) x [y0, y0+h).
+     * Buffer row 0 is the window's bottom row (Blender's render-result order). */
+    int x0, y0, w, h;
+    float *pass[UB_PASS_COUNT]; /* NULL: pass not wanted */
+    float background[4];
+} ub_film;
+
+typedef struct {
+    uint64_t rays, steps, iterations;
+} ub_counters;
+
+typedef struct {
+    const ub_camera *camera;
+    const ub_object *objects;
+    int object_count;
+    const ub_film *film;
+    /* Set to non-zero from any thread to stop the render at the next marching step. */
+    volatile int *cancel;
+} ub_scene;
+
+/* One rectangle of the film rendered by one thread: packets of UB_LANES pixels along rows. */
+typedef void (*ub_tile_kernel)(const ub_scene *scene, int tx0, int ty0, int tx1, int ty1,
+                               ub_counters *counters);
+
+void ub_render_tile_avx2(const ub_scene *, int, int, int, int, ub_counters *);
+void ub_render_tile_portable(const ub_scene *, int, int, int, int, ub_counters *);
+
+/* Distance estimate and escape count at object-space points (the kernels' own arithmetic),
+ * for tests: n points, xyz interleaved; writes estimate (object units) and iterations. */
+typedef void (*ub_estimate_kernel)(const ub_object *obj, const float *xyz, size_t n,
+                                   float *estimate, float *iterations);
+void ub_estimate_avx2(const ub_object *, const float *, size_t, float *, float *);
+void ub_estimate_portable(const ub_object *, const float *, size_t, float *, float *);
+
+int ub_cpu_has_avx2_fma(void);
+
+/* scene.c / camera.c: derive the precomputed fields; return NULL or an error message. */
+const char *ub_object_prepare(ub_object *obj, double theta, const double slice_basis[4][3],
+                              const double slice_origin[4], const double object_to_world[4][4]);
+const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
+                              const double projection[4][4]);
+/* Ray through the centre of full-image pixel (px, py): world origin, unit direction, t range. */
+void ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
+                   double *t_min, double *t_max);
+
+#endif

@@ -1,0 +1,64 @@
+/* 8-lane float vectors on AVX2 + FMA. Every operation here has an exact twin in
+ * simd_portable.h (IEEE add/mul/div/sqrt and fused multiply-add are correctly rounded on both),
+ * so the two kernels produce identical bits. Compile the including file with
+ * `#pragma GCC target("avx2,fma")` (not -march=native: the wheel must run on any x86-64). */
+#ifndef UNBOUND_SIMD_AVX2_H
+#define UNBOUND_SIMD_AVX2_H
+#include <immintrin.h>
+#include <stdint.h>
+
+typedef __m256 vf;   /* 8 floats */
+typedef __m256 vm;   /* 8 lane masks: all bits set = true */
+
+#define V_ISA_NAME "avx2"
+
+static inline vf v_set1(float x) { return _mm256_set1_ps(x); }
+static inline vf v_load(const float *p) { return _mm256_loadu_ps(p); }
+static inline void v_store(float *p, vf a) { _mm256_storeu_ps(p, a); }
+static inline vf v_add(vf a, vf b) { return _mm256_add_ps(a, b); }
+static inline vf v_sub(vf a, vf b) { return _mm256_sub_ps(a, b); }
+static inline vf v_mul(vf a, vf b) { return _mm256_mul_ps(a, b); }
+static inline vf v_div(vf a, vf b) { return _mm256_div_ps(a, b); }
+static inline vf v_sqrt(vf a) { return _mm256_sqrt_ps(a); }
+/* a*b + c and a*b - c with a single rounding. */
+static inline vf v_fma(vf a, vf b, vf c) { return _mm256_fmadd_ps(a, b, c); }
+static inline vf v_fms(vf a, vf b, vf c) { return _mm256_fmsub_ps(a, b, c); }
+/* -(a*b) + c */
+static inline vf v_fnma(vf a, vf b, vf c) { return _mm256_fnmadd_ps(a, b, c); }
+/* min(a, b) = a < b ? a : b and max(a, b) = a > b ? a : b, NaN-semantics included. */
+static inline vf v_min(vf a, vf b) { return _mm256_min_ps(a, b); }
+static inline vf v_max(vf a, vf b) { return _mm256_max_ps(a, b); }
+static inline vm v_lt(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
+static inline vm v_le(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
+static inline vm v_gt(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
+static inline vm m_and(vm a, vm b) { return _mm256_and_ps(a, b); }
+static inline vm m_or(vm a, vm b) { return _mm256_or_ps(a, b); }
+static inline vm m_andnot(vm a, vm b) { return _mm256_andnot_ps(a, b); } /* !a & b */
+static inline vm m_false(void) { return _mm256_setzero_ps(); }
+static inline int m_bits(vm a) { return _mm256_movemask_ps(a); }
+static inline vm m_from_bits(int bits)
+{
+    const __m256i lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    __m256i b = _mm256_and_si256(_mm256_set1_epi32(bits), lane);
+    return _mm256_castsi256_ps(_mm256_cmpeq_epi32(b, lane));
+}
+/* m ? a : b */
+static inline vf v_select(vm m, vf a, vf b) { return _mm256_blendv_ps(b, a, m); }
+/* a + (m ? 1 : 0) */
+static inline vf v_count(vf a, vm m) { return _mm256_add_ps(a, _mm256_and_ps(m, _mm256_set1_ps(1.0f))); }
+
+/* Split positive normal x into mantissa m in [sqrt(1/2), sqrt(2)) and exponent e: x = m 2^e. */
+static inline void v_frexp_centered(vf x, vf *m, vf *e)
+{
+    __m256i xi = _mm256_castps_si256(x);
+    __m256i ei = _mm256_sub_epi32(_mm256_srli_epi32(xi, 23), _mm256_set1_epi32(127));
+    __m256i mi = _mm256_or_si256(_mm256_and_si256(xi, _mm256_set1_epi32(0x007fffff)),
+                                 _mm256_set1_epi32(0x3f800000));
+    vf mf = _mm256_castsi256_ps(mi); /* [1, 2) */
+    vm big = _mm256_cmp_ps(mf, _mm256_set1_ps(1.41421356f), _CMP_GT_OQ);
+    mf = _mm256_blendv_ps(mf, _mm256_mul_ps(mf, _mm256_set1_ps(0.5f)), big);
+    ei = _mm256_add_epi32(ei, _mm256_and_si256(_mm256_castps_si256(big), _mm256_set1_epi32(1)));
+    *m = mf;
+    *e = _mm256_cvtepi32_ps(ei);
+}
+#endif

@@ -1,0 +1,20 @@
+"""Unbound's native core: ray marching of 3-D slices of quaternion Julia sets by unbounding
+spheres (Hart, Sandin & Kauffman 1989), on every core, into caller-owned float32 passes.
+
+The functions come from the compiled module; see README "Native core" for the parameters.
+"""
+from ._native import (  # noqa: F401
+    BACKGROUND_DEPTH,
+    MAX_IMAGE_SIZE,
+    MAX_ITERATIONS,
+    PASS_CHANNELS,
+    PASSES,
+    camera_ray,
+    cpu_info,
+    describe,
+    estimate,
+    render,
+)
+from .camera import look_at, orthographic, perspective  # noqa: F401
+
+__version__ = "0.1.0"
