@@ -34,7 +34,10 @@ static int get_double(PyObject *o, const char *name, double lo, double hi, int a
         return -1;
     }
     if (!(v >= lo && v <= hi)) {
-        PyErr_Format(PyExc_ValueError, "%s must be in [%g, %g], got %g", name, lo, hi, v);
+        /* PyErr_Format has no %g: format here. */
+        char msg[ERRBUF + 96];
+        snprintf(msg, sizeof msg, "%s must be in [%g, %g], got %g", name, lo, hi, v);
+        PyErr_SetString(PyExc_ValueError, msg);
         return -1;
     }
     *out = v;

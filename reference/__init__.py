@@ -1,0 +1,1 @@
+"""Float64 numpy references for tests and benchmarks (independent of the native core)."""

@@ -1,0 +1,151 @@
+"""Every bad input is a ValueError/TypeError naming the parameter, never a crash."""
+import math
+
+import numpy as np
+import pytest
+import unbound_core as uc
+
+from conftest import alloc_passes, make_camera
+
+W, H = 16, 12
+
+
+def call(camera=None, objects=None, passes=None, **kw):
+    camera = make_camera(W, H) if camera is None else camera
+    objects = [dict(max_iterations=8)] if objects is None else objects
+    passes = alloc_passes(W, H, ["combined", "depth"]) if passes is None else passes
+    return uc.render(camera, objects, passes, **kw)
+
+
+def cam_with(**changes):
+    c = make_camera(W, H)
+    c.update(changes)
+    return c
+
+
+NAN, INF = math.nan, math.inf
+OBJECT_CASES = [
+    (dict(mu=(NAN, 0, 0, 0)), ValueError, r"objects\[0\]\.mu\[0\] must be finite"),
+    (dict(mu=(0, INF, 0, 0)), ValueError, r"objects\[0\]\.mu\[1\] must be finite"),
+    (dict(mu=(0, 0, 0)), ValueError, r"objects\[0\]\.mu must have 4 components"),
+    (dict(mu="abcd"), TypeError, r"objects\[0\]\.mu must be a sequence"),
+    (dict(mu=(1e9, 0, 0, 0)), ValueError, r"mu and slice_origin"),
+    (dict(theta=NAN), ValueError, r"objects\[0\]\.theta must be finite"),
+    (dict(max_iterations=0), ValueError, r"objects\[0\]\.max_iterations must be in \[1, 10000\]"),
+    (dict(max_iterations=-5), ValueError, r"max_iterations"),
+    (dict(max_iterations=10 ** 12), ValueError, r"max_iterations"),
+    (dict(max_iterations=10 ** 40), ValueError, r"max_iterations"),
+    (dict(max_iterations=3.5), TypeError, r"max_iterations must be an integer"),
+    (dict(bailout=NAN), ValueError, r"bailout must be finite"),
+    (dict(bailout=0.5), ValueError, r"bailout must be in"),
+    (dict(bailout=INF), ValueError, r"bailout must be finite"),
+    (dict(epsilon=0.0), ValueError, r"epsilon must be in"),
+    (dict(epsilon=-1e-3), ValueError, r"epsilon must be in"),
+    (dict(detail=NAN), ValueError, r"detail must be finite"),
+    (dict(step_factor=2.0), ValueError, r"step_factor must be in"),
+    (dict(max_step=0.0), ValueError, r"max_step must be in"),
+    (dict(max_step=NAN), ValueError, r"max_step must be finite"),
+    (dict(max_steps=0), ValueError, r"max_steps"),
+    (dict(bisection_steps=-1), ValueError, r"bisection_steps"),
+    (dict(epsilon_mode="tiny"), ValueError, r"epsilon_mode must be one of"),
+    (dict(kind="mandelbox"), ValueError, r"kind must be one of"),
+    (dict(color=(1, 1)), ValueError, r"color must have 3 components"),
+    (dict(slice_basis=[[1, 0, 0], [0, 1, 0], [0, 0, 2], [0, 0, 0]]), ValueError, r"orthonormal"),
+    (dict(slice_basis=[[1, 0], [0, 1]]), ValueError, r"slice_basis must be a 4x3 matrix"),
+    (dict(matrix=[[0, 0, 0, 0]] * 3 + [[0, 0, 0, 1]]), ValueError, r"objects\[0\]: object_to_world must be invertible"),
+    (dict(matrix=[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 1]]), ValueError, r"affine"),
+    (dict(matrix=[[1, 0, 0, NAN], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), ValueError, r"matrix\[0\]\[3\] must be finite"),
+    (dict(colour=(1, 0, 0)), ValueError, r"unknown key 'colour'"),
+]
+
+
+@pytest.mark.parametrize("change,exc,message", OBJECT_CASES)
+def test_bad_object_parameters(change, exc, message):
+    with pytest.raises(exc, match=message):
+        call(objects=[dict(dict(max_iterations=8), **change)])
+
+
+@pytest.mark.parametrize("camera,exc,message", [
+    (cam_with(width=0), ValueError, r"camera\.width must be in \[1, 65536\]"),
+    (cam_with(height=-3), ValueError, r"camera\.height must be in"),
+    (cam_with(width=10 ** 6), ValueError, r"camera\.width"),
+    (cam_with(width=1.5), TypeError, r"camera\.width must be an integer"),
+    (cam_with(projection=[[0] * 4] * 4), ValueError, r"camera\.projection must be invertible"),
+    (cam_with(projection=[[NAN] * 4] * 4), ValueError, r"camera\.projection\[0\]\[0\] must be finite"),
+    (cam_with(matrix=[[0] * 4] * 4), ValueError, r"camera\.matrix must have a non-degenerate rotation"),
+    (cam_with(matrix=[[1, 0, 0]] * 4), ValueError, r"camera\.matrix\[0\] must have 4 components"),
+    ({"matrix": np.eye(4).tolist(), "width": 4, "height": 4}, ValueError, r"camera needs"),
+    ("camera", TypeError, r"camera must be a dict"),
+])
+def test_bad_camera(camera, exc, message):
+    with pytest.raises(exc, match=message):
+        call(camera=camera)
+
+
+def test_bad_passes():
+    with pytest.raises(ValueError, match=r"passes\['combined'\] must have shape \(12, 16, 4\)"):
+        call(passes={"combined": np.zeros((12, 16, 3), np.float32)})
+    with pytest.raises(TypeError, match=r"passes\['depth'\] must have dtype float32"):
+        call(passes={"depth": np.zeros((12, 16), np.float64)})
+    with pytest.raises(ValueError, match=r"passes\['depth'\] must be C-contiguous"):
+        call(passes={"depth": np.zeros((16, 12), np.float32).T})
+    with pytest.raises(TypeError, match=r"passes\['depth'\] must be a writable buffer"):
+        ro = np.zeros((12, 16), np.float32)
+        ro.flags.writeable = False
+        call(passes={"depth": ro})
+    with pytest.raises(TypeError, match=r"passes\['depth'\] must be a writable buffer"):
+        call(passes={"depth": [0.0] * (12 * 16)})
+    with pytest.raises(ValueError, match=r"passes: unknown pass 'Depth'"):
+        call(passes={"Depth": np.zeros((12, 16), np.float32)})
+    with pytest.raises(ValueError, match=r"passes\['depth'\] must have shape"):
+        call(passes={"depth": np.zeros((0, 0), np.float32)})
+
+
+@pytest.mark.parametrize("window,message", [
+    ((0, 0, 17, 12), r"window .* must lie inside the 16x12 image"),
+    ((-1, 0, 4, 4), r"window"),
+    ((0, 0, 0, 4), r"window"),
+    ((2, 2, 14, 11), r"window"),
+    ((0.5, 0, 4, 4), r"window must be 4 integers"),
+    ((NAN, 0, 4, 4), r"window\[0\] must be finite"),
+])
+def test_bad_window(window, message):
+    with pytest.raises(ValueError, match=message):
+        call(window=window)
+
+
+def test_bad_options():
+    with pytest.raises(ValueError, match=r"threads must be in \[0, 1024\]"):
+        call(threads=-1)
+    with pytest.raises(ValueError, match=r"threads must be in"):
+        call(threads=100000)
+    with pytest.raises(ValueError, match=r"tile_size must be in"):
+        call(tile_size=0)
+    with pytest.raises(ValueError, match=r"simd must be one of"):
+        call(simd="sse9")
+    with pytest.raises(TypeError, match=r"progress must be callable"):
+        call(progress=3)
+    with pytest.raises(TypeError, match=r"cancel must have an is_set"):
+        call(cancel=object())
+    with pytest.raises(ValueError, match=r"background\[3\] must be finite"):
+        call(background=(0, 0, 0, NAN))
+    with pytest.raises(ValueError, match=r"objects: at most 64"):
+        call(objects=[dict()] * 65)
+    with pytest.raises(TypeError, match=r"objects must be a list"):
+        call(objects=dict())
+
+
+def test_empty_object_list_renders_background():
+    passes = alloc_passes(W, H, ["combined", "depth", "alpha"])
+    stats = uc.render(make_camera(W, H), [], passes, background=(0.1, 0.2, 0.3, 1.0))
+    assert stats["rays"] == W * H
+    assert np.all(passes["depth"] == np.float32(1e10))
+    assert np.allclose(passes["combined"], np.array([0.1, 0.2, 0.3, 1.0], np.float32))
+    assert np.all(passes["alpha"] == 0)
+
+
+def test_estimate_bad_input():
+    with pytest.raises(ValueError, match=r"points must be a C-contiguous float32 array of shape \(n, 3\)"):
+        uc.estimate({}, np.zeros((4, 2), np.float32), np.zeros(4, np.float32), np.zeros(4, np.float32))
+    with pytest.raises(ValueError, match=r"estimate must have shape \(4,\)"):
+        uc.estimate({}, np.zeros((4, 3), np.float32), np.zeros(3, np.float32), np.zeros(4, np.float32))

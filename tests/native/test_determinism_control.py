@@ -1,0 +1,126 @@
+"""Same parameters, same bytes: whatever the thread count, tile size or SIMD path. Progress,
+cancellation and counters."""
+import threading
+import time
+
+import numpy as np
+import pytest
+import unbound_core as uc
+
+from conftest import make_camera, render
+
+OBJ = dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=14)
+
+
+def test_identical_bytes_for_any_threads_tiles_and_simd():
+    cam = make_camera(97, 61)
+    ref, ref_stats = render(cam, [OBJ], threads=1, tile_size=32)
+    paths = ["portable"] + (["avx2"] if uc.cpu_info()["avx2_fma"] else [])
+    for threads, tile, simd in [(2, 32, "auto"), (7, 13, "auto"), (3, 1, "portable"), (2, 64, paths[-1]),
+                                (1, 5, paths[0])]:
+        out, stats = render(cam, [OBJ], threads=threads, tile_size=tile, simd=simd)
+        for k in ref:
+            assert ref[k].tobytes() == out[k].tobytes(), (k, threads, tile, simd)
+        for k in ("rays", "steps", "iterations"):
+            assert stats[k] == ref_stats[k]
+
+
+def test_window_equals_crop_of_full_image():
+    """Render borders and tiles: a window renders exactly the matching pixels of the full image."""
+    cam = make_camera(80, 60)
+    full, _ = render(cam, [OBJ])
+    win = (13, 7, 41, 29)
+    part, stats = render(cam, [OBJ], window=win)
+    assert stats["rays"] == 41 * 29
+    for k in full:
+        assert np.array_equal(part[k], full[k][7:36, 13:54], equal_nan=True), k
+
+
+def test_counters_and_stats():
+    cam = make_camera(64, 48)
+    passes, stats = render(cam, [OBJ])
+    assert stats["rays"] == 64 * 48
+    assert stats["steps"] == int(passes["steps"].sum())
+    assert stats["iterations"] >= stats["steps"]
+    assert stats["seconds"] > 0 and stats["threads"] >= 1 and stats["simd"] in ("avx2", "portable")
+    assert stats["cancelled"] is False
+
+
+def test_progress_reaches_completion_and_is_monotonic():
+    cam = make_camera(320, 240)
+    seen = []
+    render(cam, [dict(OBJ, max_iterations=60)], ["alpha"], progress=seen.append, poll_interval=0.001, threads=2)
+    assert seen == sorted(seen) and all(0.0 <= f <= 1.0 for f in seen)
+
+
+def test_cancel_from_progress_callback_stops_within_100ms():
+    cam = make_camera(1920, 1080)
+    heavy = dict(OBJ, max_iterations=400, detail=4.0)
+    state = {}
+
+    def progress(fraction):
+        if "t" not in state and time.perf_counter() - state["start"] > 0.05:
+            state["t"] = time.perf_counter()
+        return "t" in state
+
+    state["start"] = time.perf_counter()
+    _, stats = render(cam, [heavy], ["combined"], progress=progress, poll_interval=0.005)
+    latency = time.perf_counter() - state["t"]
+    assert stats["cancelled"] is True
+    assert latency < 0.1, f"cancel took {latency * 1000:.1f} ms"
+
+
+def test_cancel_from_another_thread_with_event():
+    cam = make_camera(1920, 1080)
+    event = threading.Event()
+    timer = threading.Timer(0.05, event.set)
+    timer.start()
+    t0 = time.perf_counter()
+    _, stats = render(cam, [dict(OBJ, max_iterations=400, detail=4.0)], ["alpha"], cancel=event)
+    elapsed = time.perf_counter() - t0
+    timer.join()
+    assert stats["cancelled"] is True
+    assert elapsed < 0.05 + 0.1
+
+
+def test_exception_in_progress_propagates_and_stops():
+    cam = make_camera(640, 480)
+
+    def boom(_):
+        raise RuntimeError("user callback failed")
+
+    with pytest.raises(RuntimeError, match="user callback failed"):
+        render(cam, [dict(OBJ, max_iterations=200)], ["alpha"], progress=boom)
+
+
+def test_gil_released_during_render():
+    """Another Python thread keeps running while a render is in progress."""
+    cam = make_camera(800, 600)
+    ticks = []
+    stop = threading.Event()
+
+    def ticker():
+        while not stop.is_set():
+            ticks.append(1)
+            time.sleep(0.001)
+
+    th = threading.Thread(target=ticker)
+    th.start()
+    render(cam, [dict(OBJ, max_iterations=100)], ["alpha"])
+    stop.set()
+    th.join()
+    assert len(ticks) > 5
+
+
+def test_union_of_two_objects_takes_nearest():
+    cam = make_camera(64, 48, eye=(0.0, -4.0, 0.0), target=(0, 0, 0))
+    ball = dict(mu=(0, 0, 0, 0), max_iterations=30, epsilon_mode="fixed", epsilon=1e-4)
+    left = dict(ball, matrix=[[0.6, 0, 0, -0.5], [0, 0.6, 0, 0], [0, 0, 0.6, 0], [0, 0, 0, 1]])
+    right = dict(ball, matrix=[[0.6, 0, 0, 0.5], [0, 0.6, 0, -0.8], [0, 0, 0.6, 0], [0, 0, 0, 1]])
+    a, _ = render(cam, [left], ["depth", "alpha"])
+    b, _ = render(cam, [right], ["depth", "alpha"])
+    both, _ = render(cam, [left, right], ["depth", "alpha"])
+    assert np.array_equal(both["alpha"], np.maximum(a["alpha"], b["alpha"]))
+    assert np.array_equal(both["depth"], np.minimum(a["depth"], b["depth"]))
+    swapped, _ = render(cam, [right, left], ["depth", "alpha"])
+    assert np.array_equal(swapped["depth"], both["depth"])
