@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 WHEEL_GLOB := dist/unbound_core-*-cp311-abi3-*.whl
 NATIVE_SOURCES := $(wildcard native/src/*.c native/src/*.h native/unbound_core/*.py) native/setup.py native/pyproject.toml
 
-.PHONY: venv wheel test test-native bench demo clean
+.PHONY: venv wheel extension test test-native bench demo clean
 
 venv: $(VENV)/.stamp
 $(VENV)/.stamp: requirements-dev.txt
@@ -19,11 +19,19 @@ wheel: $(VENV)/.stamp dist/.wheel-stamp
 dist/.wheel-stamp: $(NATIVE_SOURCES)
 	rm -rf dist/unbound_core-*.whl native/build native/*.egg-info
 	$(PY) -m pip wheel -q --no-deps --no-build-isolation -w dist ./native
-	rm -rf native/build native/*.egg-info
-	$(PY) -m pip install -q --force-reinstall --no-deps $(WHEEL_GLOB)
+	rm -rf native/build native/*.egg-info build/wheel
+	# Unpacked for the native tests; deliberately not installed into .venv, so that bpy finds
+	# the core only through the installed extension, as a user's Blender does.
+	$(PY) -m zipfile -e $(WHEEL_GLOB) build/wheel
 	touch $@
 
-test: wheel
+# The Blender extension zip: addon/ + manifest + wheel, built and validated by Blender's tool.
+extension: dist/.extension-stamp
+dist/.extension-stamp: dist/.wheel-stamp blender_manifest.toml $(wildcard addon/*.py) tools/build_extension.py
+	$(PY) tools/build_extension.py
+	touch $@
+
+test: extension
 	$(PY) -m pytest tests
 
 test-native: wheel

@@ -11,6 +11,8 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+# The wheel `make wheel` built, unpacked (the tests run the real compiled module).
+sys.path.insert(0, str(ROOT / "build" / "wheel"))
 
 import unbound_core as uc  # noqa: E402
 

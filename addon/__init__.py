@@ -1,0 +1,39 @@
+"""Unbound: ray-marched 3-D deterministic fractals (quaternion Julia sets first) as a Blender
+render engine, after Hart, Sandin & Kauffman, "Ray tracing deterministic 3-D fractals" (1989)."""
+# Import order keeps reloading safe: utils -> passes -> properties -> engine -> operators -> ui.
+if "bpy" in locals():
+    import importlib
+    for _mod in (utils, passes, properties, engine, operators, ui):  # noqa: F821
+        importlib.reload(_mod)
+
+import bpy
+
+from . import utils, passes, properties, engine, operators, ui  # noqa: E402
+
+
+class UnboundRenderEngine(bpy.types.RenderEngine):
+    """Thin: every callback is one call into engine.py."""
+    bl_idname = utils.ENGINE_ID
+    bl_label = "Unbound"
+    bl_use_preview = False
+    bl_use_shading_nodes_custom = False
+
+    def render(self, depsgraph):
+        engine.render(self, depsgraph)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        engine.update_render_passes(self, scene, renderlayer)
+
+
+def register():
+    properties.register()
+    bpy.utils.register_class(UnboundRenderEngine)
+    operators.register()
+    ui.register()
+
+
+def unregister():
+    ui.unregister()
+    operators.unregister()
+    bpy.utils.unregister_class(UnboundRenderEngine)
+    properties.unregister()

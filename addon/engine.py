@@ -1,0 +1,145 @@
+"""Final renders: Blender's depsgraph -> the native core -> render passes.
+
+The RenderEngine class (in __init__.py) only forwards its callbacks here."""
+import time
+
+import bpy
+import numpy as np
+
+from . import passes, utils
+
+
+class RenderError(Exception):
+    """A problem the user can fix; reported in Blender's UI, never as a traceback."""
+
+
+def camera_description(engine, depsgraph, width, height):
+    """The native camera dict: Blender's own camera matrix and projection matrix, so focal length,
+    sensor size and fit, shift, clipping, orthographic scale and pixel aspect all come for free."""
+    scene = depsgraph.scene
+    cam_ob = engine.camera_override or scene.camera
+    if cam_ob is None:
+        raise RenderError("The scene has no camera: add one or set Scene > Camera")
+    cam_ob = cam_ob.evaluated_get(depsgraph)
+    if cam_ob.type != 'CAMERA':
+        raise RenderError("The scene camera '%s' is not a camera object" % cam_ob.name)
+    if cam_ob.data.type not in {'PERSP', 'ORTHO'}:
+        raise RenderError("Unbound renders perspective and orthographic cameras; '%s' is %s"
+                          % (cam_ob.name, cam_ob.data.type.lower()))
+    r = scene.render
+    projection = cam_ob.calc_matrix_camera(depsgraph, x=width, y=height, scale_x=r.pixel_aspect_x,
+                                           scale_y=r.pixel_aspect_y)
+    matrix = engine.camera_model_matrix(cam_ob, use_spherical_stereo=False)
+    return dict(matrix=[list(row) for row in matrix], projection=[list(row) for row in projection],
+                width=width, height=height)
+
+
+def fractal_objects(depsgraph):
+    """Native dicts for every visible fractal object (instances included), in a stable order."""
+    found = []
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        if ob.type != 'EMPTY' or not ob.unbound.is_fractal:
+            continue
+        key = (ob.name, inst.is_instance, inst.random_id)
+        found.append((key, ob.unbound.native_parameters(inst.matrix_world)))
+    found.sort(key=lambda item: item[0])
+    return [params for _, params in found]
+
+
+def image_window(scene):
+    """Full image size and the rendered window (x, y, width, height) in pixels: the render border
+    when one is set, as Blender computes it (border fraction times size, truncated)."""
+    r = scene.render
+    width = r.resolution_x * r.resolution_percentage // 100
+    height = r.resolution_y * r.resolution_percentage // 100
+    if width < 1 or height < 1:
+        raise RenderError("The output resolution is %d x %d pixels: nothing to render" % (width, height))
+    if not r.use_border:
+        return width, height, (0, 0, width, height)
+    x0, x1 = int(r.border_min_x * width), int(r.border_max_x * width)
+    y0, y1 = int(r.border_min_y * height), int(r.border_max_y * height)
+    if x1 <= x0 or y1 <= y0:
+        raise RenderError("The render border is empty")
+    return width, height, (x0, y0, x1 - x0, y1 - y0)
+
+
+def background(scene):
+    """Premultiplied RGBA of the background: transparent film, else the world colour (the colour
+    and strength of a Background node feeding the World Output, or the world's viewport colour)."""
+    if scene.render.film_transparent:
+        return (0.0, 0.0, 0.0, 0.0)
+    world = scene.world
+    if world is None:
+        return (0.0, 0.0, 0.0, 1.0)
+    color, strength = tuple(world.color), 1.0
+    if world.use_nodes and world.node_tree:
+        out = next((n for n in world.node_tree.nodes if n.type == 'OUTPUT_WORLD' and n.is_active_output), None)
+        link = out and next(iter(out.inputs["Surface"].links), None)
+        if link and link.from_node.type == 'BACKGROUND':
+            bg = link.from_node
+            if not bg.inputs["Color"].is_linked:
+                color = tuple(bg.inputs["Color"].default_value)[:3]
+            if not bg.inputs["Strength"].is_linked:
+                strength = bg.inputs["Strength"].default_value
+    return (color[0] * strength, color[1] * strength, color[2] * strength, 1.0)
+
+
+def thread_count(scene):
+    """Blender's Performance > Threads setting, as Cycles honours it (0: every core)."""
+    r = scene.render
+    return r.threads if r.threads_mode == 'FIXED' else 0
+
+
+def update_render_passes(engine, scene, view_layer):
+    for p in passes.enabled(view_layer):
+        engine.register_pass(scene, view_layer, p.name, p.channels, p.chan_id, p.kind)
+
+
+def render(engine, depsgraph):
+    """RenderEngine.render: one view layer of one frame."""
+    try:
+        _render(engine, depsgraph)
+    except (RenderError, ImportError, ValueError, TypeError) as exc:
+        message = "Unbound: %s" % exc
+        engine.report({'ERROR'}, message)
+        engine.error_set(message)
+
+
+def _render(engine, depsgraph):
+    scene = depsgraph.scene
+    view_layer = depsgraph.view_layer
+    core = utils.native()
+    width, height, window = image_window(scene)
+    camera = camera_description(engine, depsgraph, width, height)
+    objects = fractal_objects(depsgraph)
+    wanted = passes.enabled(view_layer)
+    w, h = window[2], window[3]
+    buffers = {p.native: np.empty((h, w, p.channels), np.float32) for p in wanted}
+    frame = scene.frame_current
+    label = "Frame %d | %s" % (frame, view_layer.name)
+    engine.update_stats("", "Unbound | %s | %d fractal object%s" % (label, len(objects), "" if len(objects) == 1 else "s"))
+
+    def progress(fraction):
+        engine.update_progress(fraction)
+        return engine.test_break()
+
+    started = time.perf_counter()
+    stats = core.render(camera, objects, buffers, window=window, threads=thread_count(scene),
+                        tile_size=scene.unbound.tile_size, simd=scene.unbound.simd.lower(),
+                        background=background(scene), progress=progress, poll_interval=0.02)
+    # The result covers the window: Blender places it in the full frame (or crops to it).
+    result = engine.begin_result(0, 0, w, h, layer=view_layer.name)
+    try:
+        layer = result.layers[0]
+        for p in wanted:
+            layer.passes[p.name].rect.foreach_set(buffers[p.native].ravel())
+    finally:
+        engine.end_result(result, cancel=stats["cancelled"])
+    if stats["cancelled"]:
+        engine.update_stats("", "Unbound | %s | cancelled" % label)
+        return
+    elapsed = time.perf_counter() - started
+    engine.update_progress(1.0)
+    engine.update_stats("", "Unbound | %s | %.2f s | %.1f Mrays/s | %s, %d threads" % (
+        label, elapsed, stats["rays"] / max(stats["seconds"], 1e-9) / 1e6, stats["simd"], stats["threads"]))

@@ -1,0 +1,139 @@
+"""Unbound's settings: one PropertyGroup per datablock (Object.unbound, Scene.unbound,
+ViewLayer.unbound). Every property is animatable and drivable; enum items carry explicit
+indices so that .blend files survive renames."""
+import math
+
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty,
+                       PointerProperty)
+
+from . import passes
+
+FRACTAL_KINDS = [
+    ('QUATERNION_JULIA', "Quaternion Julia", "3-D slice of the Julia set of z^2 + mu over the quaternions", 0),
+]
+THRESHOLD_MODES = [
+    ('PIXEL', "Pixel", "Hit threshold follows the pixel footprint at each depth (detail adapts to resolution)", 0),
+    ('FIXED', "Fixed", "Hit threshold is a fixed distance in object units, as in the paper", 1),
+]
+SIMD_MODES = [
+    ('AUTO', "Automatic", "AVX2 and FMA where the CPU has them, portable code otherwise", 0),
+    ('AVX2', "AVX2", "Force the AVX2 and FMA kernel", 1),
+    ('PORTABLE', "Portable", "Force the portable kernel (same pixels, slower)", 2),
+]
+
+
+def bounding_radius(mu):
+    """Radius of a ball that contains K_mu (section 3.4): |z| > R with R^2 - R - |mu| = 0 escapes."""
+    return 0.5 * (1.0 + math.sqrt(1.0 + 4.0 * math.sqrt(sum(c * c for c in mu))))
+
+
+def _update_display(self, context):
+    """Keep the empty's sphere display on the bounding sphere of the set."""
+    ob = self.id_data
+    if isinstance(ob, bpy.types.Object) and ob.type == 'EMPTY' and self.is_fractal:
+        radius = bounding_radius(self.mu)
+        if abs(ob.empty_display_size - radius) > 1e-6:
+            ob.empty_display_size = radius
+
+
+def slice_frame(offset, rotation):
+    """Slice map of object space into the quaternions: the 1-i-j space at k = offset, turned
+    toward the k axis by rotation (angles in the 1-k, i-k and j-k planes, applied in that order).
+    Returns (basis 4x3 as rows, origin 4)."""
+    frame = [[1.0 if r == c else 0.0 for c in range(4)] for r in range(4)]  # columns: 1, i, j, k
+    for axis, angle in enumerate(rotation):
+        c, s = math.cos(angle), math.sin(angle)
+        for r in range(4):
+            a, k = frame[r][axis], frame[r][3]
+            frame[r][axis], frame[r][3] = c * a - s * k, s * a + c * k
+    basis = [row[:3] for row in frame]
+    origin = [offset * frame[r][3] for r in range(4)]
+    return basis, origin
+
+
+class UnboundObjectSettings(bpy.types.PropertyGroup):
+    is_fractal: BoolProperty(name="Fractal", description="This empty is an Unbound fractal object",
+                             default=False, options=set())
+    kind: EnumProperty(name="Kind", description="Family of fractal", items=FRACTAL_KINDS,
+                       default='QUATERNION_JULIA', update=_update_display)
+    mu: FloatVectorProperty(name="Mu", description="Constant mu of f(z) = z^2 + mu (components 1, i, j, k)",
+                            size=4, default=(-0.2, 0.8, 0.0, 0.0), soft_min=-2.0, soft_max=2.0, min=-1000.0,
+                            max=1000.0, step=1, precision=4, update=_update_display)
+    theta: FloatProperty(name="Theta", description="Rotation of the complex Julia set before it is lifted "
+                         "into the quaternions (the paper's eq. 5-6)", subtype='ANGLE', default=0.0,
+                         soft_min=-2 * math.pi, soft_max=2 * math.pi, min=-1e6, max=1e6)
+    slice_offset: FloatProperty(name="K Offset", description="Position of the 3-D slice along the fourth (k) axis",
+                                default=0.0, soft_min=-2.0, soft_max=2.0, min=-1000.0, max=1000.0, step=1,
+                                precision=4)
+    slice_rotation: FloatVectorProperty(name="Slice Rotation", description="Rotation of the slice's x, y and z "
+                                        "axes toward the fourth (k) axis", size=3, subtype='EULER',
+                                        default=(0.0, 0.0, 0.0))
+    max_iterations: IntProperty(name="Iterations", description="Maximum iterations of z^2 + mu per point",
+                                default=16, min=1, max=10000, soft_max=200)
+    bailout: FloatProperty(name="Bailout", description="Escape radius; never below the set's bounding radius",
+                           default=4.0, min=1.0, max=1e6, soft_max=100.0)
+    threshold_mode: EnumProperty(name="Threshold", description="How the hit threshold epsilon is chosen",
+                                 items=THRESHOLD_MODES, default='PIXEL')
+    detail: FloatProperty(name="Detail", description="Pixel mode: the hit threshold is the pixel footprint "
+                          "divided by this", default=1.0, min=0.001, max=1000.0, soft_max=10.0)
+    epsilon: FloatProperty(name="Epsilon", description="Fixed mode: hit threshold in object units",
+                           default=1e-3, min=1e-7, max=1.0, precision=6, step=0.01)
+    step_factor: FloatProperty(name="Step Factor", description="Fraction of the distance estimate taken per "
+                               "step; below 1 is more careful", default=1.0, min=0.01, max=1.0)
+    max_step: FloatProperty(name="Max Step", description="Longest step along a ray in world units, a guard "
+                            "against bad estimates", default=10.0, min=1e-6, max=1e6, soft_max=100.0)
+    max_steps: IntProperty(name="Max Steps", description="Most marching steps per ray", default=2000, min=1,
+                           max=1000000, soft_max=20000)
+    bisection_steps: IntProperty(name="Refinement", description="Bisection steps that refine each hit",
+                                 default=10, min=0, max=64)
+    color: FloatVectorProperty(name="Color", description="Surface colour", subtype='COLOR', size=3,
+                               default=(0.8, 0.8, 0.8), min=0.0, soft_max=1.0)
+
+    def native_parameters(self, matrix):
+        """The native core's object dict for this object at world matrix `matrix`."""
+        basis, origin = slice_frame(self.slice_offset, self.slice_rotation)
+        return dict(
+            kind="quaternion_julia", mu=tuple(self.mu), theta=self.theta, slice_basis=basis,
+            slice_origin=origin, matrix=[list(row) for row in matrix], max_iterations=self.max_iterations,
+            bailout=self.bailout, epsilon_mode=self.threshold_mode.lower(), epsilon=self.epsilon,
+            detail=self.detail, step_factor=self.step_factor, max_step=self.max_step, max_steps=self.max_steps,
+            bisection_steps=self.bisection_steps, color=tuple(self.color))
+
+
+class UnboundSceneSettings(bpy.types.PropertyGroup):
+    tile_size: IntProperty(name="Tile Size", description="Side of the square tiles handed to render threads",
+                           default=32, min=4, max=1024)
+    simd: EnumProperty(name="SIMD", description="Vector instruction set of the marching kernel",
+                       items=SIMD_MODES, default='AUTO')
+
+
+def _pass_toggle(p):
+    return BoolProperty(name=p.name, description=p.description, default=False)
+
+
+UnboundViewLayerSettings = type("UnboundViewLayerSettings", (bpy.types.PropertyGroup,), {
+    "__annotations__": {p.toggle: _pass_toggle(p) for p in passes.PASSES if p.toggle},
+    "__doc__": "Which of Unbound's passes this view layer writes",
+})
+
+classes = (UnboundObjectSettings, UnboundSceneSettings, UnboundViewLayerSettings)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Object.unbound = PointerProperty(type=UnboundObjectSettings, name="Unbound",
+                                               description="Unbound fractal settings")
+    bpy.types.Scene.unbound = PointerProperty(type=UnboundSceneSettings, name="Unbound",
+                                              description="Unbound render settings")
+    bpy.types.ViewLayer.unbound = PointerProperty(type=UnboundViewLayerSettings, name="Unbound",
+                                                  description="Unbound passes")
+
+
+def unregister():
+    del bpy.types.ViewLayer.unbound
+    del bpy.types.Scene.unbound
+    del bpy.types.Object.unbound
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)
