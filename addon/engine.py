@@ -6,7 +6,12 @@ import time
 import bpy
 import numpy as np
 
-from . import passes, utils
+from . import passes, properties, utils
+
+
+# Counters of the most recent render in this process (rays, steps, iterations, seconds, threads,
+# simd, cancelled), for scripts and tests.
+LAST_STATS = {}
 
 
 class RenderError(Exception):
@@ -24,8 +29,8 @@ def camera_description(engine, depsgraph, width, height):
     if cam_ob.type != 'CAMERA':
         raise RenderError("The scene camera '%s' is not a camera object" % cam_ob.name)
     if cam_ob.data.type not in {'PERSP', 'ORTHO'}:
-        raise RenderError("Unbound renders perspective and orthographic cameras; '%s' is %s"
-                          % (cam_ob.name, cam_ob.data.type.lower()))
+        raise RenderError("the camera '%s' is %s; only perspective and orthographic cameras are supported"
+                          % (cam_ob.name, {'PANO': "panoramic"}.get(cam_ob.data.type, cam_ob.data.type.lower())))
     r = scene.render
     projection = cam_ob.calc_matrix_camera(depsgraph, x=width, y=height, scale_x=r.pixel_aspect_x,
                                            scale_y=r.pixel_aspect_y)
@@ -42,7 +47,7 @@ def fractal_objects(depsgraph):
         if ob.type != 'EMPTY' or not ob.unbound.is_fractal:
             continue
         key = (ob.name, inst.is_instance, inst.random_id)
-        found.append((key, ob.unbound.native_parameters(inst.matrix_world)))
+        found.append((key, properties.native_parameters(ob.unbound, inst.matrix_world)))
     found.sort(key=lambda item: item[0])
     return [params for _, params in found]
 
@@ -128,6 +133,8 @@ def _render(engine, depsgraph):
     stats = core.render(camera, objects, buffers, window=window, threads=thread_count(scene),
                         tile_size=scene.unbound.tile_size, simd=scene.unbound.simd.lower(),
                         background=background(scene), progress=progress, poll_interval=0.02)
+    LAST_STATS.clear()
+    LAST_STATS.update(stats)
     # The result covers the window: Blender places it in the full frame (or crops to it).
     result = engine.begin_result(0, 0, w, h, layer=view_layer.name)
     try:

@@ -28,13 +28,18 @@ def bounding_radius(mu):
     return 0.5 * (1.0 + math.sqrt(1.0 + 4.0 * math.sqrt(sum(c * c for c in mu))))
 
 
-def _update_display(self, context):
-    """Keep the empty's sphere display on the bounding sphere of the set."""
-    ob = self.id_data
-    if isinstance(ob, bpy.types.Object) and ob.type == 'EMPTY' and self.is_fractal:
-        radius = bounding_radius(self.mu)
-        if abs(ob.empty_display_size - radius) > 1e-6:
-            ob.empty_display_size = radius
+@bpy.app.handlers.persistent
+def sync_display_size(scene, depsgraph):
+    """Keep each fractal empty's sphere display on the bounding sphere of its set.
+
+    Handlers on depsgraph updates and frame changes rather than property update callbacks:
+    update callbacks make the bpy 4.2 module crash at process exit, and they would not follow
+    keyframes anyway. Only differing sizes are written, so the handler settles at once."""
+    for ob in scene.objects:
+        if ob.type == 'EMPTY' and ob.unbound.is_fractal and not ob.library:
+            radius = bounding_radius(ob.unbound.mu)
+            if abs(ob.empty_display_size - radius) > 1e-6:
+                ob.empty_display_size = radius
 
 
 def slice_frame(offset, rotation):
@@ -56,10 +61,10 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
     is_fractal: BoolProperty(name="Fractal", description="This empty is an Unbound fractal object",
                              default=False, options=set())
     kind: EnumProperty(name="Kind", description="Family of fractal", items=FRACTAL_KINDS,
-                       default='QUATERNION_JULIA', update=_update_display)
+                       default='QUATERNION_JULIA')
     mu: FloatVectorProperty(name="Mu", description="Constant mu of f(z) = z^2 + mu (components 1, i, j, k)",
                             size=4, default=(-0.2, 0.8, 0.0, 0.0), soft_min=-2.0, soft_max=2.0, min=-1000.0,
-                            max=1000.0, step=1, precision=4, update=_update_display)
+                            max=1000.0, step=1, precision=4)
     theta: FloatProperty(name="Theta", description="Rotation of the complex Julia set before it is lifted "
                          "into the quaternions (the paper's eq. 5-6)", subtype='ANGLE', default=0.0,
                          soft_min=-2 * math.pi, soft_max=2 * math.pi, min=-1e6, max=1e6)
@@ -90,22 +95,24 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
     color: FloatVectorProperty(name="Color", description="Surface colour", subtype='COLOR', size=3,
                                default=(0.8, 0.8, 0.8), min=0.0, soft_max=1.0)
 
-    def native_parameters(self, matrix):
-        """The native core's object dict for this object at world matrix `matrix`."""
-        basis, origin = slice_frame(self.slice_offset, self.slice_rotation)
-        return dict(
-            kind="quaternion_julia", mu=tuple(self.mu), theta=self.theta, slice_basis=basis,
-            slice_origin=origin, matrix=[list(row) for row in matrix], max_iterations=self.max_iterations,
-            bailout=self.bailout, epsilon_mode=self.threshold_mode.lower(), epsilon=self.epsilon,
-            detail=self.detail, step_factor=self.step_factor, max_step=self.max_step, max_steps=self.max_steps,
-            bisection_steps=self.bisection_steps, color=tuple(self.color))
-
 
 class UnboundSceneSettings(bpy.types.PropertyGroup):
     tile_size: IntProperty(name="Tile Size", description="Side of the square tiles handed to render threads",
                            default=32, min=4, max=1024)
     simd: EnumProperty(name="SIMD", description="Vector instruction set of the marching kernel",
                        items=SIMD_MODES, default='AUTO')
+
+
+def native_parameters(props, matrix):
+    """The native core's object dict for fractal settings `props` at world matrix `matrix`.
+    (A module function: a method on a registered PropertyGroup makes bpy 4.2 crash at exit.)"""
+    basis, origin = slice_frame(props.slice_offset, props.slice_rotation)
+    return dict(
+        kind="quaternion_julia", mu=tuple(props.mu), theta=props.theta, slice_basis=basis,
+        slice_origin=origin, matrix=[list(row) for row in matrix], max_iterations=props.max_iterations,
+        bailout=props.bailout, epsilon_mode=props.threshold_mode.lower(), epsilon=props.epsilon,
+        detail=props.detail, step_factor=props.step_factor, max_step=props.max_step, max_steps=props.max_steps,
+        bisection_steps=props.bisection_steps, color=tuple(props.color))
 
 
 def _pass_toggle(p):
@@ -129,9 +136,14 @@ def register():
                                               description="Unbound render settings")
     bpy.types.ViewLayer.unbound = PointerProperty(type=UnboundViewLayerSettings, name="Unbound",
                                                   description="Unbound passes")
+    bpy.app.handlers.depsgraph_update_post.append(sync_display_size)
+    bpy.app.handlers.frame_change_post.append(sync_display_size)
 
 
 def unregister():
+    for handlers in (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post):
+        if sync_display_size in handlers:
+            handlers.remove(sync_display_size)
     del bpy.types.ViewLayer.unbound
     del bpy.types.Scene.unbound
     del bpy.types.Object.unbound

@@ -1,0 +1,108 @@
+"""Runs inside the real Blender GUI (under Xvfb, see tools/blender_gui.sh) with the extension
+installed and enabled in the user preferences:
+    blender -p 0 0 W H --python gui_panels.py -- OUTDIR
+From timers: adds a fractal with the add-on's operator, selects it, sets the engine to Unbound,
+shows the Properties editor on the Object, Render and View Layer tabs in turn and grabs the X
+screen with ffmpeg after each (bpy.ops.screen.screenshot is black on Mesa's software GL), then
+quits. Prints `UNBOUND_GUI {json}` lines."""
+import json
+import os
+import subprocess
+import sys
+import time
+
+import bpy
+
+OUT = sys.argv[sys.argv.index("--") + 1]
+MODULE = "bl_ext.user_default.unbound"
+T0 = time.time()
+STEP_S = 1.0      # between a change and its screenshot: a few redraws of the whole window
+bpy.context.preferences.view.show_splash = False   # --python runs before the splash opens
+bpy.context.preferences.use_preferences_save = False  # no auto-save of the test's prefs at quit
+
+
+def log(**values):
+    values["t"] = round(time.time() - T0, 2)
+    print("UNBOUND_GUI " + json.dumps(values), flush=True)
+
+
+def window():
+    return bpy.context.window_manager.windows[0]
+
+
+def area(kind):
+    return max((a for a in window().screen.areas if a.type == kind), key=lambda a: a.width * a.height)
+
+
+def region(a, kind='WINDOW'):
+    return next(r for r in a.regions if r.type == kind)
+
+
+def grab(name):
+    path = os.path.join(OUT, name)
+    cp = subprocess.run(["ffmpeg", "-loglevel", "error", "-y", "-f", "x11grab", "-draw_mouse", "0",
+                         "-i", os.environ["DISPLAY"], "-frames:v", "1", path], capture_output=True, text=True)
+    log(shot=name, rc=cp.returncode, err=cp.stderr.strip()[-300:])
+
+
+def show_tab(tab):
+    props = area('PROPERTIES')
+    props.spaces.active.context = tab
+    props.tag_redraw()
+    log(tab=props.spaces.active.context, size=[props.width, props.height])
+
+
+def scroll_to_end():
+    # The add-on's panels come after Blender's own: scroll to the end so that they are in view.
+    # (After a redraw: scrolling is clamped to the panel layout of the last drawn tab.)
+    props = area('PROPERTIES')
+    with bpy.context.temp_override(window=window(), area=props, region=region(props)):
+        for _ in range(10):
+            bpy.ops.view2d.scroll_down(page=True)
+    props.tag_redraw()
+
+
+def setup():
+    win = window()
+    view3d = area('VIEW_3D')
+    with bpy.context.temp_override(window=win, area=view3d, region=region(view3d)):
+        for ob in list(bpy.context.scene.objects):
+            if ob.type == 'MESH':
+                bpy.data.objects.remove(ob)
+        res = bpy.ops.object.unbound_fractal_add()
+    ob = bpy.context.view_layer.objects.active
+    ob.select_set(True)
+    scene = bpy.context.scene
+    scene.render.engine = 'UNBOUND'
+    log(step="setup", addon_enabled=MODULE in bpy.context.preferences.addons, add_op=sorted(res),
+        active=ob.name if ob else None, is_fractal=bool(ob and ob.unbound.is_fractal), engine=scene.render.engine,
+        window=[win.width, win.height])
+    show_tab('OBJECT')
+
+
+def quit_blender():
+    log(step="quit")
+    import addon_utils
+    addon_utils.disable(MODULE, default_set=False)
+    with bpy.context.temp_override(window=window()):
+        bpy.ops.wm.quit_blender()
+
+
+STEPS = [setup, scroll_to_end, lambda: grab("object_tab.png"),
+         lambda: show_tab('RENDER'), scroll_to_end, lambda: grab("render_tab.png"),
+         lambda: show_tab('VIEW_LAYER'), scroll_to_end, lambda: grab("view_layer_tab.png"), quit_blender]
+
+
+def run_steps():
+    step = STEPS.pop(0)
+    try:
+        step()
+    except Exception as exc:  # report, then quit: a hanging GUI would only hit the timeout
+        import traceback
+        traceback.print_exc()
+        log(error=repr(exc))
+        STEPS[:] = [quit_blender] if step is not quit_blender else []
+    return STEP_S if STEPS else None
+
+
+bpy.app.timers.register(run_steps, first_interval=1.0)

@@ -1,0 +1,157 @@
+"""Unbound's geometry is Cycles' geometry.
+
+For each camera case one bpy process renders the same scene twice through Blender's pipeline:
+Cycles with a finely subdivided unit sphere mesh, and Unbound with mu = 0 (K_0 is the unit ball).
+If Unbound uses Blender's camera exactly (matrix, projection, shift, sensor fit, orthographic
+scale, pixel aspect, resolution percentage, render border with and without crop), the two
+silhouettes and Depth passes agree up to the mesh's polygonal error.
+
+What the mesh can and cannot tell apart, at the 96 x 72 pixels used here:
+
+* A UV sphere with 256 segments and 128 rings has its vertices on the sphere and its faces inside
+  it, by at most 2 (1 - cos(pi/256)) ~ 1.5e-4 (the sagitta of both edge directions).
+* The sphere spans about 45 pixels per world unit, so 1e-3 world units are about 0.05 pixel.
+  Cycles' pixel filter is made 0.01 pixel wide: its samples land within 0.005 pixel of the pixel
+  centre, where Unbound shoots its single ray.
+
+Checks (tolerances stated where they are asserted):
+
+1. Output size: both engines write images of the same size (the cropped border, or full frame).
+2. Silhouette IoU (alpha > 0.5) against the unit mesh >= IOU_MIN. Measured: 1.0 in every case but
+   the pixel-aspect-2 one (0.9989: a handful of pixels whose centre lies within the mesh's 1.5e-4
+   sagitta of the true silhouette, which the mesh misses and the true ball does not).
+3. Sandwich, a sharper test of the camera: the unit ball lies between the mesh scaled by
+   1 - BAND (inside the ball) and by 1 + BAND (containing it), so Unbound's silhouette must
+   contain the inner mesh's and lie inside the outer mesh's, and its Depth must lie between the
+   two meshes' Depth wherever the inner mesh covers the pixel. With BAND = 1e-3 an error in the
+   camera of about 0.05 pixel is caught; IoU alone misses errors under half a pixel.
+4. Depth against the unit mesh, on pixels inside both silhouettes eroded by 2 pixels (near the
+   silhouette the depth is steep and the mesh error is divided by a grazing cosine):
+   max |difference| <= DEPTH_TOL = 1e-3 world units. Measured: at most 5.1e-4, median 1.2e-4,
+   Cycles always the deeper (the mesh is inside the ball).
+5. Background: where neither engine hits, Unbound's Depth equals Cycles' exactly: 1e10 inside
+   the rendered window (both engines write it), and Blender's own fill (1e11) outside an uncropped
+   render border.
+"""
+import numpy as np
+import pytest
+
+IOU_MIN = 0.995
+BAND = 1e-3
+DEPTH_TOL = 1e-3
+BACKGROUND_DEPTH = 1e10
+
+FAR = (0.4, -3.0, 0.9)        # camera location used by most cases (the unit ball fills the frame)
+BORDER = dict(use_border=True, border_min_x=0.1, border_max_x=0.55, border_min_y=0.15, border_max_y=0.62)
+
+# id: (camera location, camera data attributes, camera object scale, scene.render attributes)
+CASES = {
+    "perspective_shift_vertical_fit": (FAR, dict(lens=50.0, shift_x=0.1, shift_y=-0.05, sensor_fit='VERTICAL'),
+                                       None, {}),
+    "perspective_horizontal_fit_portrait": (FAR, dict(lens=35.0, shift_y=0.08, sensor_fit='HORIZONTAL'), None,
+                                            dict(resolution_x=60, resolution_y=90)),
+    "orthographic": (FAR, dict(type='ORTHO', ortho_scale=3.0, shift_x=-0.07), None, {}),
+    "pixel_aspect_x_2": (FAR, dict(lens=50.0), None, dict(pixel_aspect_x=2.0)),
+    "pixel_aspect_y_1.5_shift": (FAR, dict(lens=50.0, shift_x=0.1), None, dict(pixel_aspect_y=1.5)),
+    "ortho_pixel_aspect_y_1.5": (FAR, dict(type='ORTHO', ortho_scale=2.6), None, dict(pixel_aspect_y=1.5)),
+    "border_crop": (FAR, dict(lens=35.0), None, dict(BORDER, use_crop_to_border=True)),
+    "border_no_crop": (FAR, dict(lens=35.0), None, dict(BORDER, use_crop_to_border=False)),
+    "border_odd_fractions_percentage_50_aspect": (
+        FAR, dict(lens=35.0, shift_x=0.05), None,
+        dict(use_border=True, use_crop_to_border=True, border_min_x=0.123, border_max_x=0.6789,
+             border_min_y=0.3333, border_max_y=0.951, resolution_percentage=50, pixel_aspect_x=1.3)),
+    "percentage_50": (FAR, dict(lens=35.0), None, dict(resolution_percentage=50)),
+    "scaled_camera_object": ((0.3, -2.6, 1.1), dict(lens=40.0), (2.0, 0.5, 1.5), {}),
+}
+
+SCRIPT = """
+import numpy as np
+camera_location, camera_data, camera_scale, render_settings = {case!r}
+scene = S.empty_scene(96, 72, "CYCLES")
+cam = S.add_camera(scene, location=camera_location, **camera_data)
+if camera_scale:
+    cam.scale = camera_scale  # Blender's engines ignore the camera object's scale
+for key, value in render_settings.items():
+    setattr(scene.render, key, value)
+scene.render.film_transparent = True
+view_layer = scene.view_layers[0]
+
+# Cycles: CPU, a few samples, no denoising, a 0.01-pixel filter (crisp edges), the Depth pass.
+scene.cycles.device = 'CPU'
+scene.cycles.samples = 4
+scene.cycles.use_denoising = False
+scene.cycles.filter_width = 0.01
+view_layer.use_pass_z = True
+bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
+sphere = bpy.context.object
+bpy.ops.object.shade_smooth()
+out = {{}}
+for label, scale in (("cycles", 1.0), ("inner", 1.0 - {band!r}), ("outer", 1.0 + {band!r})):
+    sphere.scale = (scale, scale, scale)
+    px = S.render_to_exr(scene, label + ".exr")
+    out[label + "_alpha"], out[label + "_depth"] = px["ViewLayer.Combined.A"], px["ViewLayer.Depth.Z"]
+
+# Unbound: the unit ball, a fixed hit threshold well below the mesh's error.
+sphere.hide_render = True
+scene.render.engine = 'UNBOUND'
+S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
+view_layer.unbound.use_pass_depth = True
+px = S.render_to_exr(scene, "unbound.exr")
+out["unbound_alpha"], out["unbound_depth"] = px["ViewLayer.Combined.A"], px["ViewLayer.Depth.Z"]
+np.savez(S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / "renders.npz", **out)
+S.report(done=True)
+"""
+
+
+def erode(mask, pixels):
+    for _ in range(pixels):
+        p = np.pad(mask, 1, constant_values=False)
+        mask = p[1:-1, 1:-1] & p[:-2, 1:-1] & p[2:, 1:-1] & p[1:-1, :-2] & p[1:-1, 2:]
+    return mask
+
+
+def pixels(mask, limit=8):
+    return [tuple(int(v) for v in rc) for rc in np.argwhere(mask)[:limit]]
+
+
+@pytest.mark.parametrize("case", CASES, ids=list(CASES))
+def test_unbound_matches_cycles(run_bpy, tmp_path, case):
+    assert run_bpy(SCRIPT.format(case=CASES[case], band=BAND), timeout=240).get("done")
+    px = dict(np.load(tmp_path / "renders.npz"))
+
+    # 1. Same output size (the cropped border, or the full frame) for every render.
+    shapes = {k: v.shape for k, v in px.items()}
+    assert len(set(shapes.values())) == 1, shapes
+
+    silhouette = {k[:-6]: v > 0.5 for k, v in px.items() if k.endswith("_alpha")}
+    unbound, cycles = silhouette["unbound"], silhouette["cycles"]
+    assert cycles.any() and (~cycles).any(), "the case must show part of the ball's silhouette"
+    assert set(np.unique(px["unbound_alpha"])) <= {0.0, 1.0}
+
+    # 2. Silhouette IoU against the unit mesh.
+    iou = (unbound & cycles).sum() / (unbound | cycles).sum()
+    assert iou >= IOU_MIN, (iou, pixels(unbound & ~cycles), pixels(cycles & ~unbound))
+
+    # 3. Sandwich: inner mesh <= Unbound's ball <= outer mesh, silhouettes and Depth.
+    inner, outer = silhouette["inner"], silhouette["outer"]
+    assert not (inner & ~unbound).any(), ("Unbound misses pixels the inner mesh covers", pixels(inner & ~unbound))
+    assert not (unbound & ~outer).any(), ("Unbound covers pixels the outer mesh misses", pixels(unbound & ~outer))
+    full = px["inner_alpha"] == 1.0  # every Cycles sample of the pixel hit the inner mesh
+    z = px["unbound_depth"]
+    too_near = full & (z < px["outer_depth"])
+    too_far = full & (z > px["inner_depth"])
+    assert not too_near.any(), ("Depth nearer than the outer mesh", pixels(too_near))
+    assert not too_far.any(), ("Depth farther than the inner mesh", pixels(too_far))
+
+    # 4. Depth against the unit mesh, 2 pixels inside both silhouettes.
+    core = erode(unbound & cycles, 2)
+    assert core.sum() >= 20
+    error = np.abs(z - px["cycles_depth"])[core]
+    assert error.max() <= DEPTH_TOL, (error.max(), np.median(error))
+
+    # 5. Background Depth: identical to Cycles' (1e10 inside the rendered window).
+    background = ~unbound & ~cycles
+    assert background.any()
+    assert np.array_equal(z[background], px["cycles_depth"][background])
+    assert (z[background] >= BACKGROUND_DEPTH).all()
+    assert (z[background] == BACKGROUND_DEPTH).any()
