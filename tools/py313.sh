@@ -19,7 +19,8 @@ ROOT=${UNBOUND_PY313_ROOT:-/opt/unbound-py313}
 BPY_VERSION=${BPY_VERSION:-5.2.3}
 MIRROR=${DEBIAN_MIRROR:-http://deb.debian.org/debian}
 CA=/etc/ssl/certs/ca-certificates.crt
-BPY_LIBS="libx11-6 libxext6 libxi6 libxrender1 libxfixes3 libxkbcommon0 libsm6 libice6 libxt6t64 libgl1"
+# libegl1: the 5.x compositor opens libEGL even in background mode.
+BPY_LIBS="libx11-6 libxext6 libxi6 libxrender1 libxfixes3 libxkbcommon0 libsm6 libice6 libxt6t64 libgl1 libegl1"
 
 say() { echo "py313: $*" >&2; }
 die() { say "error: $*"; exit 1; }
@@ -124,16 +125,21 @@ setup() {
 	fi
 
 	if [ -n "$bpy" ]; then
-		if [ ! -e "$ROOT/.unbound-bpy-libs" ]; then
+		if [ ! -e "$ROOT/.unbound-bpy-libs-2" ]; then
 			say "apt-get install X11/GL libraries for bpy"
 			# shellcheck disable=SC2086
 			apt_in $BPY_LIBS
-			touch "$ROOT/.unbound-bpy-libs"
+			touch "$ROOT/.unbound-bpy-libs-2"
 		fi
 		if ! inroot python -c "import importlib.metadata as m, sys; sys.exit(m.version('bpy') != '$BPY_VERSION')" 2>/dev/null; then
 			say "pip install bpy==$BPY_VERSION (~400 MB)"
 			net
 			inroot pip install -q "bpy==$BPY_VERSION" || die "pip install bpy==$BPY_VERSION failed"
+		fi
+		if ! inroot python -c 'import OpenImageIO' 2>/dev/null; then
+			say "pip install OpenImageIO"
+			net
+			inroot pip install -q OpenImageIO || die "pip install OpenImageIO failed"
 		fi
 	fi
 
