@@ -32,8 +32,11 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
         layout.use_property_decorate = True
         props = context.object.unbound
         layout.prop(props, "kind")
+        # Label the quaternion's components as Blender labels Location X, Y, Z: without a subtype a
+        # 4-vector shows one "Mu" label over four unlabelled fields.
         col = layout.column(align=True)
-        col.prop(props, "mu")
+        for i, text in enumerate(("Mu 1", "i", "j", "k")):
+            col.prop(props, "mu", index=i, text=text)
         layout.prop(props, "theta")
         layout.prop(props, "color")
 
@@ -47,7 +50,9 @@ class UNBOUND_PT_fractal_slice(FractalPanel, bpy.types.Panel):
         layout.use_property_split = True
         props = context.object.unbound
         layout.prop(props, "slice_offset")
-        layout.column().prop(props, "slice_rotation")
+        # "Rotation", not the property's "Slice Rotation": the panel says Slice already, and the longer
+        # label is cut to "Slice Ro..." in the Properties editor of a 1366x768 screen.
+        layout.column().prop(props, "slice_rotation", text="Rotation")
 
 
 class UNBOUND_PT_fractal_quality(FractalPanel, bpy.types.Panel):

@@ -26,6 +26,16 @@ def log(**values):
     print("UNBOUND_GUI " + json.dumps(values), flush=True)
 
 
+DRAWN = set()   # the add-on's panels whose draw() ran since the last tab change
+
+
+def watch_panels():
+    """Record which of the add-on's panels the Properties editor draws: an extra draw function
+    appended to each (it draws nothing). (Replacing Panel.draw after registration crashes 4.3.)"""
+    for cls in sys.modules[MODULE + ".ui"].classes:
+        cls.append(lambda self, context, _name=cls.__name__: DRAWN.add(_name))
+
+
 def window():
     return bpy.context.window_manager.windows[0]
 
@@ -42,12 +52,14 @@ def grab(name):
     path = os.path.join(OUT, name)
     cp = subprocess.run(["ffmpeg", "-loglevel", "error", "-y", "-f", "x11grab", "-draw_mouse", "0",
                          "-i", os.environ["DISPLAY"], "-frames:v", "1", path], capture_output=True, text=True)
-    log(shot=name, rc=cp.returncode, err=cp.stderr.strip()[-300:])
+    log(shot=name, rc=cp.returncode, err=cp.stderr.strip()[-300:], tab=area('PROPERTIES').spaces.active.context,
+        panels=sorted(DRAWN))
 
 
 def show_tab(tab):
     props = area('PROPERTIES')
     props.spaces.active.context = tab
+    DRAWN.clear()
     props.tag_redraw()
     log(tab=props.spaces.active.context, size=[props.width, props.height])
 
@@ -63,6 +75,7 @@ def scroll_to_end():
 
 
 def setup():
+    watch_panels()
     win = window()
     view3d = area('VIEW_3D')
     with bpy.context.temp_override(window=win, area=view3d, region=region(view3d)):

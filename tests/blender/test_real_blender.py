@@ -1,0 +1,137 @@
+"""The extension in the real `blender` binary, not bpy from PyPI: Debian trixie's Blender 4.3
+(Python 3.13) in the chroot of tools/blender_gui.sh. Validates and installs the built zip with
+`blender --command extension`, renders a still in the background, and opens the GUI under Xvfb to
+screenshot the Object, Render and View Layer tabs of the Properties editor with Unbound's panels
+(saved in build/screenshots/real_blender/ for people to look at)."""
+import json
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+WORK = ROOT / "build" / "real_blender"            # inside the repo: the chroot sees it at /src/build/...
+SHOTS = ROOT / "build" / "screenshots" / "real_blender"
+SCRIPTS = "tests/blender/real_blender"
+MODULE = "bl_ext.user_default.unbound"
+SCREEN = (1920, 1080)
+
+pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="the trixie chroot needs root (CI runs as root)")
+
+
+def chroot_path(path):
+    return "/src/" + str(pathlib.Path(path).relative_to(ROOT))
+
+
+def tool(*args, timeout=180, env=None):
+    """sh tools/blender_gui.sh ARGS -> (rc, stdout+stderr); on timeout the whole process group
+    (and with it the chroot's pid namespace) is killed."""
+    proc = subprocess.Popen(["sh", "tools/blender_gui.sh", *args], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                            env=dict(os.environ, **(env or {})))
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, _ = proc.communicate()
+        pytest.fail("timed out after %d s: blender_gui.sh %s\n%s" % (timeout, " ".join(args), out[-4000:]))
+    return proc.returncode, out
+
+
+def results(out, tag):
+    return [json.loads(line[len(tag) + 1:]) for line in out.splitlines() if line.startswith(tag + " ")]
+
+
+def pixels(path):
+    import OpenImageIO as oiio
+    buf = oiio.ImageBuf(str(path))
+    assert not buf.has_error, buf.geterror()
+    return buf.get_pixels(oiio.UINT8)   # (H, W, C), row 0 at the top
+
+
+@pytest.fixture(scope="module")
+def zip_path():
+    zips = sorted((ROOT / "dist").glob("unbound-*.zip"))
+    assert zips, "build the extension first: make extension"
+    rc, out = tool("setup", timeout=900)
+    assert rc == 0, out[-4000:]
+    return zips[-1]
+
+
+@pytest.fixture(scope="module")
+def user_dir(zip_path):
+    """An isolated BLENDER_USER_RESOURCES with the extension installed (and enabled, in its
+    userpref.blend) by Blender's own command line. config/ must exist first, or Blender silently
+    uses ~/.config/blender instead."""
+    shutil.rmtree(WORK, ignore_errors=True)
+    (WORK / "user" / "config").mkdir(parents=True)
+    rc, out = tool("run", "env", "BLENDER_USER_RESOURCES=" + chroot_path(WORK / "user"), "blender", "--command",
+                   "extension", "install-file", "-r", "user_default", "-e", chroot_path(zip_path))
+    assert rc == 0 and 'Installed "unbound"' in out, out[-4000:]
+    assert (WORK / "user" / "extensions" / "user_default" / "unbound" / "blender_manifest.toml").exists()
+    assert (WORK / "user" / "config" / "userpref.blend").exists()
+    return WORK / "user"
+
+
+def test_extension_validate(zip_path):
+    rc, out = tool("run", "blender", "--command", "extension", "validate", chroot_path(zip_path))
+    assert rc == 0 and "Success" in out, out[-4000:]
+
+
+def test_background_render(user_dir):
+    still = WORK / "still.png"
+    rc, out = tool("run", "env", "BLENDER_USER_RESOURCES=" + chroot_path(user_dir), "blender", "-b",
+                   "-setaudio", "None", "--python", SCRIPTS + "/bg_render.py", "--", chroot_path(still))
+    assert rc == 0, out[-4000:]
+    (r,) = results(out, "UNBOUND_RESULT") or [None]
+    assert r, out[-4000:]
+    assert r["blender"].startswith("4.") and r["python"].startswith("3.13"), r
+    assert r["addon_enabled"] and r["engine"] == "UNBOUND", r
+    assert r["add_op"] == ["FINISHED"] and r["fractal"] and r["render_op"] == ["FINISHED"], r
+    assert r["stats"]["rays"] == 96 * 72 and not r["stats"]["cancelled"], r
+    assert still.stat().st_size > 0
+    px = pixels(still)
+    assert px.shape == (72, 96, 4)
+    coverage = float((px[..., 3] > 0).mean())   # transparent film: alpha marks the fractal
+    assert 0.05 < coverage < 0.99, coverage
+    assert px[px[..., 3] > 0][:, :3].std() > 5, "object pixels are flat"
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    shutil.copy(still, SHOTS / "background_render.png")
+
+
+def test_gui_panels_screenshots(user_dir):
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    names = ["object_tab.png", "render_tab.png", "view_layer_tab.png"]
+    for name in names:
+        (SHOTS / name).unlink(missing_ok=True)
+    w, h = SCREEN
+    rc, out = tool("gui", "env", "BLENDER_USER_RESOURCES=" + chroot_path(user_dir), "blender",
+                   "-p", "0", "0", str(w), str(h), "-setaudio", "None",
+                   "--python", SCRIPTS + "/gui_panels.py", "--", chroot_path(SHOTS),
+                   env={"XVFB_SCREEN": "%dx%dx24" % SCREEN, "BL_TIMEOUT": "150"}, timeout=180)
+    assert rc == 0, out[-4000:]
+    log = results(out, "UNBOUND_GUI")
+    assert not [e for e in log if "error" in e], out[-4000:]
+    setup = next(e for e in log if e.get("step") == "setup")
+    assert setup["addon_enabled"] and setup["add_op"] == ["FINISHED"], setup
+    assert setup["is_fractal"] and setup["engine"] == "UNBOUND" and setup["window"] == list(SCREEN), setup
+    shots = {e["shot"]: e for e in log if "shot" in e}
+    assert sorted(shots) == sorted(names), log
+    expect = {"object_tab.png": ("OBJECT", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice",
+                                            "UNBOUND_PT_fractal_quality"}),
+              "render_tab.png": ("RENDER", {"UNBOUND_PT_render"}),
+              "view_layer_tab.png": ("VIEW_LAYER", {"UNBOUND_PT_passes"})}
+    for name, (tab, panels) in expect.items():
+        e = shots[name]
+        assert e["rc"] == 0, e
+        assert e["tab"] == tab and set(e["panels"]) == panels, e
+        px = pixels(SHOTS / name)
+        assert px.shape[:2] == (h, w), px.shape
+        assert px[..., :3].std() > 10, "%s is blank" % name
+        # The Properties editor (bottom right in the Layout workspace) is not blank either.
+        props = px[h * 3 // 10:, w * 5 // 6:, :3]
+        assert props.std() > 10 and len(np.unique(props.reshape(-1, 3), axis=0)) > 20, name
