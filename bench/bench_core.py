@@ -35,7 +35,9 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
+# The wheel `make wheel` built and unpacked; an in-place build of native/ as a fallback.
 sys.path.insert(0, str(REPO / "native"))
+sys.path.insert(0, str(REPO / "build" / "wheel"))
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
 
