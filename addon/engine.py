@@ -54,7 +54,9 @@ def fractal_objects(depsgraph):
 
 def image_window(scene):
     """Full image size and the rendered window (x, y, width, height) in pixels: the render border
-    when one is set, as Blender computes it (border fraction times size, truncated)."""
+    when one is set, as Blender computes it: border fraction times size in float32 (C's
+    `border.xmin * winx`), truncated. Double precision differs: 0.7f * 100 is 69.99999 in double
+    but rounds to 70.0 in float32, and a one-pixel error shifts and shrinks the border."""
     r = scene.render
     width = r.resolution_x * r.resolution_percentage // 100
     height = r.resolution_y * r.resolution_percentage // 100
@@ -62,8 +64,9 @@ def image_window(scene):
         raise RenderError("The output resolution is %d x %d pixels: nothing to render" % (width, height))
     if not r.use_border:
         return width, height, (0, 0, width, height)
-    x0, x1 = int(r.border_min_x * width), int(r.border_max_x * width)
-    y0, y1 = int(r.border_min_y * height), int(r.border_max_y * height)
+    fw, fh = np.float32(width), np.float32(height)
+    x0, x1 = int(np.float32(r.border_min_x) * fw), int(np.float32(r.border_max_x) * fw)
+    y0, y1 = int(np.float32(r.border_min_y) * fh), int(np.float32(r.border_max_y) * fh)
     if x1 <= x0 or y1 <= y0:
         raise RenderError("The render border is empty")
     return width, height, (x0, y0, x1 - x0, y1 - y0)

@@ -1,7 +1,8 @@
 """Unbound's geometry is Cycles' geometry.
 
-For each camera case one bpy process renders the same scene twice through Blender's pipeline:
-Cycles with a finely subdivided unit sphere mesh, and Unbound with mu = 0 (K_0 is the unit ball).
+For each camera case one bpy process renders the same scene through Blender's pipeline with
+Cycles (a finely subdivided unit sphere mesh, also scaled by 1 -/+ BAND, see 3.) and with Unbound
+(mu = 0: K_0 is the unit ball).
 If Unbound uses Blender's camera exactly (matrix, projection, shift, sensor fit, orthographic
 scale, pixel aspect, resolution percentage, render border with and without crop), the two
 silhouettes and Depth passes agree up to the mesh's polygonal error.
@@ -16,15 +17,18 @@ What the mesh can and cannot tell apart, at the 96 x 72 pixels used here:
 
 Checks (tolerances stated where they are asserted):
 
-1. Output size: both engines write images of the same size (the cropped border, or full frame).
+1. Output size: both engines write images of the same size (the cropped border, or full frame);
+   placement inside an uncropped border is checked by 2-5 on the full frame.
 2. Silhouette IoU (alpha > 0.5) against the unit mesh >= IOU_MIN. Measured: 1.0 in every case but
    the pixel-aspect-2 one (0.9989: a handful of pixels whose centre lies within the mesh's 1.5e-4
-   sagitta of the true silhouette, which the mesh misses and the true ball does not).
+   sagitta of the true silhouette, which the mesh misses and the true ball does not). A border
+   one pixel off, as with the double-precision border fixed in engine.image_window, gave 0.94.
 3. Sandwich, a sharper test of the camera: the unit ball lies between the mesh scaled by
    1 - BAND (inside the ball) and by 1 + BAND (containing it), so Unbound's silhouette must
    contain the inner mesh's and lie inside the outer mesh's, and its Depth must lie between the
-   two meshes' Depth wherever the inner mesh covers the pixel. With BAND = 1e-3 an error in the
-   camera of about 0.05 pixel is caught; IoU alone misses errors under half a pixel.
+   two meshes' Depth wherever the inner mesh covers the pixel. With BAND = 1e-3 (about 0.05
+   pixel) a camera off by a tenth of a pixel fails by hundreds of pixels (checked by moving the
+   projection 0.1 pixel sideways; its IoU was still 0.998, so IoU alone would not see it).
 4. Depth against the unit mesh, on pixels inside both silhouettes eroded by 2 pixels (near the
    silhouette the depth is steep and the mesh error is divided by a grazing cosine):
    max |difference| <= DEPTH_TOL = 1e-3 world units. Measured: at most 5.1e-4, median 1.2e-4,
@@ -43,6 +47,8 @@ BACKGROUND_DEPTH = 1e10
 
 FAR = (0.4, -3.0, 0.9)        # camera location used by most cases (the unit ball fills the frame)
 BORDER = dict(use_border=True, border_min_x=0.1, border_max_x=0.55, border_min_y=0.15, border_max_y=0.62)
+BORDER_F32 = dict(use_border=True, border_min_x=0.05, border_max_x=0.7, border_min_y=0.1, border_max_y=0.58,
+                  resolution_x=100, resolution_y=50)
 
 # id: (camera location, camera data attributes, camera object scale, scene.render attributes)
 CASES = {
@@ -60,6 +66,9 @@ CASES = {
         FAR, dict(lens=35.0, shift_x=0.05), None,
         dict(use_border=True, use_crop_to_border=True, border_min_x=0.123, border_max_x=0.6789,
              border_min_y=0.3333, border_max_y=0.951, resolution_percentage=50, pixel_aspect_x=1.3)),
+    # Blender computes the border in float32 (border.xmin * winx in C): 0.7f * 100 = 70, not 69.
+    "border_float32_rounding_crop": (FAR, dict(lens=35.0), None, dict(BORDER_F32, use_crop_to_border=True)),
+    "border_float32_rounding_no_crop": (FAR, dict(lens=35.0), None, dict(BORDER_F32, use_crop_to_border=False)),
     "percentage_50": (FAR, dict(lens=35.0), None, dict(resolution_percentage=50)),
     "scaled_camera_object": ((0.3, -2.6, 1.1), dict(lens=40.0), (2.0, 0.5, 1.5), {}),
 }

@@ -1,0 +1,196 @@
+"""examples/animate_mu.py, run as a user runs it (`python examples/animate_mu.py ...` with the bpy
+module, each run in a fresh process and a fresh BLENDER_USER_RESOURCES): it writes a PNG and a
+multilayer EXR of every pass per frame, the keyframed mu reaches every frame, and a frame range
+split across two processes (a render farm) gives the same frames as one process."""
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "examples" / "animate_mu.py"
+SIZE = (64, 48)
+FRAMES = (1, 4)
+PASS_CHANNELS = ["ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Combined.B", "ViewLayer.Combined.A",
+                 "ViewLayer.Depth.Z", "ViewLayer.Normal.X", "ViewLayer.Normal.Y", "ViewLayer.Normal.Z",
+                 "ViewLayer.Position.X", "ViewLayer.Position.Y", "ViewLayer.Position.Z",
+                 "ViewLayer.Iterations.X", "ViewLayer.Steps.X", "ViewLayer.Distance.X"]
+
+
+def extension_zip():
+    zips = sorted((ROOT / "dist").glob("unbound-*.zip"))
+    assert zips, "build the extension first: make extension"
+    return zips[-1]
+
+
+def example_cmd(out, frames, python=None, dashdash=False):
+    args = ["--out", str(out), "--frames", str(frames[0]), str(frames[1]),
+            "--resolution", str(SIZE[0]), str(SIZE[1])]
+    return [python or sys.executable, str(EXAMPLE)] + (["--"] if dashdash else []) + args
+
+
+def start_example(cmd, workdir):
+    """Starts the example in workdir with its own Blender user folder; returns the Popen."""
+    user = workdir / "user"
+    (user / "config").mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), UNBOUND_EXTENSION=str(extension_zip()))
+    return subprocess.Popen(cmd, cwd=workdir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+
+
+def finish(proc, timeout=240):
+    out, _ = proc.communicate(timeout=timeout)
+    assert proc.returncode == 0, "example failed (rc %d):\n%s" % (proc.returncode, out[-6000:])
+    return out
+
+
+def read_exr(path):
+    """{channel: float32 array (H, W)} of every part of an OpenEXR file (5.x may write several)."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(str(path))
+    assert inp is not None, oiio.geterror()
+    channels, part = {}, 0
+    while inp.seek_subimage(part, 0):
+        spec = inp.spec()
+        data = inp.read_image(part, 0, 0, spec.nchannels, "float")
+        for c, name in enumerate(spec.channelnames):
+            channels[name] = np.ascontiguousarray(data[..., c])
+        part += 1
+    inp.close()
+    return channels
+
+
+def read_png(path):
+    import OpenImageIO as oiio
+    buf = oiio.ImageBuf(str(path))
+    assert not buf.has_error, buf.geterror()
+    return buf.get_pixels(oiio.UINT8), buf.spec()
+
+
+def frame_files(out, frame):
+    return out / "png" / ("frame_%04d.png" % frame), out / "exr" / ("frame_%04d.exr" % frame)
+
+
+@pytest.fixture(scope="module")
+def animation(tmp_path_factory):
+    """Frames 1-4 of the example in one process: (output folder, its stdout)."""
+    work = tmp_path_factory.mktemp("animate_mu_full")
+    out = work / "out"
+    text = finish(start_example(example_cmd(out, FRAMES), work))
+    return out, text
+
+
+def test_writes_png_and_multilayer_exr_per_frame(animation):
+    out, text = animation
+    listed = [line.strip() for line in text.splitlines() if line.strip().endswith((".png", ".exr"))]
+    expected = []
+    for frame in range(FRAMES[0], FRAMES[1] + 1):
+        png, exr = frame_files(out, frame)
+        assert png.is_file() and exr.is_file(), text[-3000:]
+        expected += [str(png), str(exr)]
+        pixels, spec = read_png(png)
+        assert (spec.width, spec.height) == SIZE and spec.nchannels == 3
+        channels = read_exr(exr)
+        assert set(PASS_CHANNELS) <= set(channels), sorted(channels)
+        assert all(channels[c].shape == (SIZE[1], SIZE[0]) for c in PASS_CHANNELS)
+        hit = channels["ViewLayer.Depth.Z"] < 1e9  # background: 1e10
+        assert 0.05 < hit.mean() < 0.95  # the fractal is in view, with background around it
+        assert np.all(channels["ViewLayer.Combined.A"] == 1.0)  # opaque: the world colour behind
+        assert np.all(channels["ViewLayer.Depth.Z"][hit] < 10.0)
+        assert np.all(channels["ViewLayer.Iterations.X"][hit] >= 1)
+        assert pixels.std() > 5  # not a blank image
+    assert sorted(listed) == sorted(expected)  # every written file is printed, one per line
+    assert "animate_mu: frames 1-4" in text
+
+
+def test_keyframed_mu_reaches_each_frame(animation, run_bpy):
+    """Frame k of the animation equals, bit for bit, a single-frame render of the same scene with
+    mu set (not keyframed) to the value the F-curves give at frame k."""
+    out, _ = animation
+    r = run_bpy("""
+        import importlib.util, math, os
+        spec = importlib.util.spec_from_file_location("animate_mu", %r)
+        A = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(A)
+        A.ensure_extension(%r)
+        scene, ob = A.build_scene(%d, %d)
+        frames = list(range(%d, %d + 1))
+        mus = {}
+        for k in frames + [1 + A.LOOP_FRAMES, 1 + A.LOOP_FRAMES // 16]:
+            scene.frame_set(k)
+            mus[k] = list(ob.unbound.mu)
+        key0 = list(A.mu_on_path(0.0))
+        mid = A.mu_on_path(1.0 / 16)  # halfway between two keyframes
+        ob.animation_data_clear()
+        singles = {}
+        for k in frames:
+            scene.frame_set(k)
+            ob.unbound.mu = mus[k]
+            assert list(ob.unbound.mu) == mus[k]
+            A.set_format(scene, 'EXR')
+            scene.render.filepath = os.path.join(os.environ["UNBOUND_TEST_TMP"], "single_%%d.exr" %% k)
+            bpy.ops.render.render(write_still=True)
+            singles[k] = scene.render.filepath
+        S.report(mus=mus, key0=key0, mid=mid, singles=singles, loop=A.LOOP_FRAMES)
+    """ % (str(EXAMPLE), str(extension_zip()), SIZE[0], SIZE[1], FRAMES[0], FRAMES[1]), install=False)
+    mus = {int(k): np.array(v) for k, v in r["mus"].items()}
+    frames = range(FRAMES[0], FRAMES[1] + 1)
+    # The F-curves: frame 1 is the first key, the loop closes, and between keys mu stays on the path.
+    assert np.allclose(mus[1], r["key0"], atol=1e-6)
+    assert np.array_equal(mus[1 + r["loop"]], mus[1])
+    mid = mus[1 + r["loop"] // 16]
+    assert np.allclose(mid, r["mid"], atol=0.005), (mid, r["mid"])  # Bezier vs. circle and sine
+    for a in frames:
+        for b in frames:
+            if a < b:
+                assert np.abs(mus[a] - mus[b]).max() > 1e-3, "mu does not move between frames %d and %d" % (a, b)
+    previous = None
+    for k in frames:
+        animated = read_exr(frame_files(out, k)[1])
+        single = read_exr(r["singles"][str(k)])
+        for c in PASS_CHANNELS:
+            assert animated[c].tobytes() == single[c].tobytes(), "frame %d, %s differs from the single render" % (k, c)
+        if previous is not None:  # frames differ as mu moves
+            for c in ("ViewLayer.Combined.R", "ViewLayer.Depth.Z", "ViewLayer.Iterations.X"):
+                assert not np.array_equal(animated[c], previous[c]), "frames %d and %d: same %s" % (k - 1, k, c)
+        previous = animated
+
+
+def test_farm_split_matches_one_process(animation, tmp_path):
+    """Frames 1-2 in one process and 3-4 in another (at the same time, as two farm nodes) write the
+    same pixels as frames 1-4 in one process."""
+    out, _ = animation
+    mid = (FRAMES[0] + FRAMES[1]) // 2
+    parts = [(FRAMES[0], mid), (mid + 1, FRAMES[1])]
+    procs = []
+    for i, frames in enumerate(parts):
+        work = tmp_path / ("node%d" % i)
+        work.mkdir()
+        # One node passes its options after `--`, as Blender's command line needs; both forms work.
+        procs.append(start_example(example_cmd(tmp_path / "split", frames, dashdash=(i == 1)), work))
+    for p in procs:
+        finish(p)
+    for k in range(FRAMES[0], FRAMES[1] + 1):
+        one_png, one_exr = frame_files(out, k)
+        split_png, split_exr = frame_files(tmp_path / "split", k)
+        one, split = read_exr(one_exr), read_exr(split_exr)
+        assert sorted(one) == sorted(split)
+        for c in one:
+            assert one[c].tobytes() == split[c].tobytes(), "frame %d, %s differs" % (k, c)
+        assert read_png(one_png)[0].tobytes() == read_png(split_png)[0].tobytes(), "frame %d PNG differs" % k
+
+
+@pytest.mark.skipif(shutil.which("blender") is None, reason="no blender binary on PATH")
+def test_runs_unchanged_in_blender(tmp_path):
+    """`blender --background --python examples/animate_mu.py -- ...`: the same script in Blender."""
+    cmd = ["blender", "--background", "--python", str(EXAMPLE), "--",
+           "--out", str(tmp_path / "out"), "--frames", "1", "2", "--resolution", str(SIZE[0]), str(SIZE[1])]
+    text = finish(start_example(cmd, tmp_path))
+    for k in (1, 2):
+        png, exr = frame_files(tmp_path / "out", k)
+        assert png.is_file() and str(png) in text
+        assert set(PASS_CHANNELS) <= set(read_exr(exr))
