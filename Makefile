@@ -40,8 +40,11 @@ test-native: wheel
 bench: wheel
 	$(PY) bench/bench_core.py
 
-demo: wheel
-	$(PY) examples/native_demo.py
+# The main job: a keyframed mu animation rendered through Blender's pipeline (bpy 4.2) with the
+# built extension installed by Blender's installer into a private user directory.
+demo: extension
+	mkdir -p build/blender-user/config
+	BLENDER_USER_RESOURCES=$(CURDIR)/build/blender-user $(PY) examples/animate_mu.py --out $(CURDIR)/out/animate_mu
 
 clean:
 	rm -rf dist native/build native/*.egg-info native/unbound_core/*.so

@@ -115,19 +115,11 @@ def ensure_extension(zip_path=None):
 
 
 def _release_addon(module):
-    """bpy module only (seen with bpy 4.2): let Python exit cleanly after the add-on was loaded.
-
-    Blender shuts down when the bpy module object is freed. Property update callbacks keep their
-    module's globals, which hold `bpy`, alive until that shutdown, so the bpy module is never freed,
-    Blender never shuts down, and its static destructors then call into a finished Python
-    interpreter (a segfault at exit). So: unregister the add-on while Python still runs (without
-    changing the saved preferences), then drop its modules' references to bpy."""
+    """bpy module only: bpy 4.2/4.5 crash or hang at exit while an add-on with a RenderEngine is
+    still registered, so unregister it while Python still runs (without saving preferences)."""
     import addon_utils
     if module in bpy.context.preferences.addons:
         addon_utils.disable(module, default_set=False)
-    for name, mod in list(sys.modules.items()):
-        if mod is not None and (name == module or name.startswith(module + ".")):
-            vars(mod).pop("bpy", None)
 
 
 # -- the scene -------------------------------------------------------------------------------------
