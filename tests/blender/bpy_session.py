@@ -2,12 +2,13 @@
 Blender does and offers scene helpers. Each test gets a fresh process and a fresh
 BLENDER_USER_RESOURCES directory (set by the caller before bpy is imported)."""
 import atexit
-import math
 import os
 import pathlib
 import sys
 
 import bpy
+
+from exr import read_exr  # noqa: F401  (re-exported for the test scripts)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 MODULE = "bl_ext.user_default.unbound"
@@ -60,23 +61,6 @@ def add_fractal(mu=(-0.2, 0.8, 0.0, 0.0), **props):
     for key, value in props.items():
         setattr(ob.unbound, key, value)
     return ob
-
-
-def read_exr(path):
-    """All channels of a (possibly multi-part) OpenEXR file: {channel name: array (H, W)}, row 0 at
-    the TOP as in the file. OpenImageIO from pip (bpy 4.2 bundles no Python binding)."""
-    import OpenImageIO as oiio
-    inp = oiio.ImageInput.open(str(path))
-    assert inp is not None, oiio.geterror()
-    channels, part = {}, 0
-    while inp.seek_subimage(part, 0):
-        spec = inp.spec()
-        data = inp.read_image(part, 0, 0, spec.nchannels, "float")
-        for c, name in enumerate(spec.channelnames):
-            channels[name] = data[..., c]
-        part += 1
-    inp.close()
-    return channels
 
 
 def render_to_exr(scene, name="result.exr"):
