@@ -16,7 +16,7 @@ $(VENV)/.stamp: requirements-dev.txt
 
 # The abi3 wheel of the native core (one per platform, every Python >= 3.11).
 wheel: $(VENV)/.stamp dist/.wheel-stamp
-dist/.wheel-stamp: $(NATIVE_SOURCES)
+dist/.wheel-stamp: $(VENV)/.stamp $(NATIVE_SOURCES)
 	rm -rf dist/unbound_core-*.whl native/build native/*.egg-info
 	$(PY) -m pip wheel -q --no-deps --no-build-isolation -w dist ./native
 	rm -rf native/build native/*.egg-info build/wheel
