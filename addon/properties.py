@@ -28,18 +28,33 @@ def bounding_radius(mu):
     return 0.5 * (1.0 + math.sqrt(1.0 + 4.0 * math.sqrt(sum(c * c for c in mu))))
 
 
-@bpy.app.handlers.persistent
-def sync_display_size(scene, depsgraph):
-    """Keep each fractal empty's sphere display on the bounding sphere of its set.
+def _sync_display_size(ob):
+    if ob.type == 'EMPTY' and ob.unbound.is_fractal and not ob.library:
+        radius = bounding_radius(ob.unbound.mu)
+        if abs(ob.empty_display_size - radius) > 1e-6:
+            ob.empty_display_size = radius
 
-    Handlers on depsgraph updates and frame changes rather than property update callbacks:
-    update callbacks make the bpy 4.2 module crash at process exit, and they would not follow
-    keyframes anyway. Only differing sizes are written, so the handler settles at once."""
+
+# Keep each fractal empty's sphere display on the bounding sphere of its set. Handlers rather than
+# property update callbacks: update callbacks make the bpy 4.2 module crash at process exit, and
+# they would not follow keyframes anyway. Only differing sizes are written, so they settle at once.
+@bpy.app.handlers.persistent
+def sync_updated_objects(scene, depsgraph):
+    """After edits: only the objects the depsgraph reports as updated."""
+    for update in depsgraph.updates:
+        if isinstance(update.id, bpy.types.Object):
+            _sync_display_size(update.id.original)
+
+
+@bpy.app.handlers.persistent
+def sync_all_objects(scene, depsgraph=None):
+    """After frame changes (keyframed mu): every object of the scene."""
     for ob in scene.objects:
-        if ob.type == 'EMPTY' and ob.unbound.is_fractal and not ob.library:
-            radius = bounding_radius(ob.unbound.mu)
-            if abs(ob.empty_display_size - radius) > 1e-6:
-                ob.empty_display_size = radius
+        _sync_display_size(ob)
+
+
+HANDLERS = ((bpy.app.handlers.depsgraph_update_post, sync_updated_objects),
+            (bpy.app.handlers.frame_change_post, sync_all_objects))
 
 
 def slice_frame(offset, rotation):
@@ -136,14 +151,14 @@ def register():
                                               description="Unbound render settings")
     bpy.types.ViewLayer.unbound = PointerProperty(type=UnboundViewLayerSettings, name="Unbound",
                                                   description="Unbound passes")
-    bpy.app.handlers.depsgraph_update_post.append(sync_display_size)
-    bpy.app.handlers.frame_change_post.append(sync_display_size)
+    for handlers, handler in HANDLERS:
+        handlers.append(handler)
 
 
 def unregister():
-    for handlers in (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post):
-        if sync_display_size in handlers:
-            handlers.remove(sync_display_size)
+    for handlers, handler in HANDLERS:
+        if handler in handlers:
+            handlers.remove(handler)
     del bpy.types.ViewLayer.unbound
     del bpy.types.Scene.unbound
     del bpy.types.Object.unbound

@@ -39,19 +39,28 @@ static inline vf UB_FN(v_log)(vf x)
     return v_fma(e, v_set1(0.693359375f), r);
 }
 
-/* Constants of one fractal object in kernel precision. */
+/* Constants of one fractal object in kernel precision, derived once per tile. */
 typedef struct {
     vf mu[4];
     vf bail2;
     int max_iterations;
+    /* Hit threshold in world units at ray distance t: eps0 + eps1 * t (fixed mode: eps1 = 0). */
+    vf eps0, eps1;
 } UB_FN(ub_de_params);
 
-static inline void UB_FN(de_params)(const ub_object *o, UB_FN(ub_de_params) *p)
+static inline void UB_FN(de_params)(const ub_object *o, const ub_camera *cam, UB_FN(ub_de_params) *p)
 {
     for (int i = 0; i < 4; i++)
         p->mu[i] = v_set1((float)o->mu[i]);
     p->bail2 = v_set1((float)(o->bailout * o->bailout));
     p->max_iterations = o->max_iterations;
+    int fixed = o->epsilon_mode == UB_EPSILON_FIXED;
+    if (!cam && !fixed) { /* estimate(): no camera, no threshold needed */
+        p->eps0 = p->eps1 = v_set1(0.0f);
+        return;
+    }
+    p->eps0 = v_set1((float)(fixed ? o->epsilon * o->sigma_min : cam->footprint0 / o->detail));
+    p->eps1 = v_set1((float)(fixed ? 0.0 : cam->footprint1 / o->detail));
 }
 
 /* Distance estimate of section 3 at quaternion points q:
@@ -163,11 +172,9 @@ typedef struct {
     vm hit;
 } UB_FN(ub_march_result);
 
-static inline vf UB_FN(threshold)(const ub_object *o, const ub_camera *cam, vf t)
+static inline vf UB_FN(threshold)(const UB_FN(ub_de_params) *p, vf t)
 {
-    if (o->epsilon_mode == UB_EPSILON_FIXED)
-        return v_set1((float)(o->epsilon * o->sigma_min));
-    return v_fma(v_set1((float)(cam->footprint1 / o->detail)), t, v_set1((float)(cam->footprint0 / o->detail)));
+    return v_fma(p->eps1, t, p->eps0);
 }
 
 /* March one object's rays by unbounding spheres (section 3): step by the distance estimate
@@ -178,7 +185,6 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
                          const UB_FN(ub_object_rays) *r, int lanes, UB_FN(ub_march_result) *res,
                          vf *steps, ub_counters *cnt)
 {
-    const ub_camera *cam = sc->camera;
     vf q0[4], qd[4];
     for (int k = 0; k < 4; k++) {
         q0[k] = v_load(r->q_enter[k]);
@@ -202,7 +208,7 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
         UB_FN(de)(dp, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
                   v_fma(s, qd[3], q0[3]), &dist, &iters);
         vf dw = v_mul(dist, sigma);
-        vf eps = UB_FN(threshold)(o, cam, v_add(te, s));
+        vf eps = UB_FN(threshold)(dp, v_add(te, s));
         *steps = v_count(*steps, active);
         iter_sum = v_add(iter_sum, v_select(active, iters, v_set1(0.0f)));
         vm is_hit = m_and(active, v_lt(dw, eps));
@@ -226,7 +232,7 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
         UB_FN(de)(dp, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
                   v_fma(mid, qd[3], q0[3]), &dist, &iters);
         vf dw = v_mul(dist, sigma);
-        vm inside = m_and(refine, v_lt(dw, UB_FN(threshold)(o, cam, v_add(te, mid))));
+        vm inside = m_and(refine, v_lt(dw, UB_FN(threshold)(dp, v_add(te, mid))));
         vm outside = m_andnot(inside, refine);
         iter_sum = v_add(iter_sum, v_select(refine, iters, v_set1(0.0f)));
         hi = v_select(inside, mid, hi);
@@ -291,7 +297,7 @@ void UB_FN(ub_render_tile)(const ub_scene *sc, int tx0, int ty0, int tx1, int ty
     const ub_film *film = sc->film;
     UB_FN(ub_de_params) dps[UB_MAX_OBJECTS];
     for (int k = 0; k < sc->object_count; k++)
-        UB_FN(de_params)(&sc->objects[k], &dps[k]);
+        UB_FN(de_params)(&sc->objects[k], cam, &dps[k]);
 
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
@@ -370,7 +376,7 @@ void UB_FN(ub_render_tile)(const ub_scene *sc, int tx0, int ty0, int tx1, int ty
                 float hbuf[UB_LANES];
                 for (int l = 0; l < UB_LANES; l++)
                     hbuf[l] = best_obj[l] == k ? best_t[l] : 1.0f;
-                vf h = v_div(UB_FN(threshold)(o, cam, v_load(hbuf)), v_set1((float)o->sigma_min));
+                vf h = v_div(UB_FN(threshold)(&dps[k], v_load(hbuf)), v_set1((float)o->sigma_min));
                 vf work = v_set1(0.0f);
                 UB_FN(gradient)(o, &dps[k], q, h, m_from_bits(mine), g, &work);
                 float wb[UB_LANES];
@@ -438,7 +444,7 @@ void UB_FN(ub_render_tile)(const ub_scene *sc, int tx0, int ty0, int tx1, int ty
 void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, float *estimate, float *iterations)
 {
     UB_FN(ub_de_params) dp;
-    UB_FN(de_params)(o, &dp);
+    UB_FN(de_params)(o, NULL, &dp);
     for (size_t base = 0; base < count; base += UB_LANES) {
         float q[4][UB_LANES];
         size_t n = count - base < UB_LANES ? count - base : UB_LANES;
