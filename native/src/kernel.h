@@ -1,7 +1,12 @@
-/* The ray-marching kernel, written once against the vf/vm vector interface and compiled twice
+/* The render kernel, written once against the vf/vm vector interface and compiled twice
  * (kernel_avx2.c, kernel_portable.c). A packet is UB_LANES horizontally adjacent pixels; each
- * lane marches its own ray and the packet runs until all lanes are done. Lanes never interact,
- * so a pixel's value does not depend on the packet, tile or thread that computed it. */
+ * lane follows its own ray and the packet runs until all lanes are done. Lanes never interact,
+ * so a pixel's value does not depend on the packet, tile or thread that computed it.
+ *
+ * A render runs, for each anti-aliasing sample, two phases over the film: phase 0 marches the
+ * camera rays into a hit buffer (the r^2 memory of the paper, plus a one-pixel apron), phase 1
+ * shades every hit (normals, lights, shadows, AO, reflections, fog, glow) and accumulates the
+ * passes. The Z-buffer normals of eq. 12-14 read the neighbours' hits from the buffer. */
 #ifndef KERNEL_SUFFIX
 #error "define KERNEL_SUFFIX and include a simd_*.h header before kernel.h"
 #endif
@@ -15,289 +20,405 @@
 #define UB_CAT(a, b) UB_CAT2(a, b)
 #define UB_FN(name) UB_CAT(name, KERNEL_SUFFIX)
 
-/* Natural logarithm of positive normal floats (Cephes' logf polynomial, ~1 ulp). Our own,
- * built only from the interface's correctly rounded operations, so both kernels agree. */
-static inline vf UB_FN(v_log)(vf x)
+#include "estimators.h"
+#include "march.h"
+#include "shading.h"
+
+/* Camera ray of full-image pixel (px, py) for one anti-aliasing sample. */
+static void UB_FN(pixel_ray)(const ub_camera *cam, int px, int py, int sample, double o[3], double d[3],
+                             double *t_min, double *t_max)
 {
-    vf m, e;
-    v_frexp_centered(x, &m, &e);
-    vf f = v_sub(m, v_set1(1.0f));
-    vf z = v_mul(f, f);
-    vf y = v_set1(7.0376836292E-2f);
-    y = v_fma(y, f, v_set1(-1.1514610310E-1f));
-    y = v_fma(y, f, v_set1(1.1676998740E-1f));
-    y = v_fma(y, f, v_set1(-1.2420140846E-1f));
-    y = v_fma(y, f, v_set1(1.4249322787E-1f));
-    y = v_fma(y, f, v_set1(-1.6668057665E-1f));
-    y = v_fma(y, f, v_set1(2.0000714765E-1f));
-    y = v_fma(y, f, v_set1(-2.4999993993E-1f));
-    y = v_fma(y, f, v_set1(3.3333331174E-1f));
-    y = v_mul(v_mul(y, f), z);
-    y = v_fma(e, v_set1(-2.12194440e-4f), y);
-    y = v_fma(z, v_set1(-0.5f), y);
-    vf r = v_add(f, y);
-    return v_fma(e, v_set1(0.693359375f), r);
+    double dx, dy;
+    ub_sample_offset(sample, &dx, &dy);
+    ub_camera_ray(cam, px + dx, py + dy, o, d, t_min, t_max);
 }
 
-/* Constants of one fractal object in kernel precision, derived once per tile. */
-typedef struct {
-    vf mu[4];
-    vf bail2;
-    int max_iterations;
-    /* Hit threshold in world units at ray distance t: eps0 + eps1 * t (fixed mode: eps1 = 0). */
-    vf eps0, eps1;
-} UB_FN(ub_de_params);
-
-static inline void UB_FN(de_params)(const ub_object *o, const ub_camera *cam, UB_FN(ub_de_params) *p)
+static void UB_FN(tile_primary)(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1,
+                                ub_counters *cnt)
 {
-    for (int i = 0; i < 4; i++)
-        p->mu[i] = v_set1((float)o->mu[i]);
-    p->bail2 = v_set1((float)(o->bailout * o->bailout));
-    p->max_iterations = o->max_iterations;
-    int fixed = o->epsilon_mode == UB_EPSILON_FIXED;
-    if (!cam && !fixed) { /* estimate(): no camera, no threshold needed */
-        p->eps0 = p->eps1 = v_set1(0.0f);
+    const ub_hit_buffer *hb = sc->hits;
+    UB_FN(ub_de_params) dps[UB_MAX_OBJECTS];
+    for (int k = 0; k < sc->object_count; k++)
+        UB_FN(de_params)(&sc->objects[k], sc->camera, &dps[k]);
+    for (int y = ty0; y < ty1; y++) {
+        for (int x = tx0; x < tx1; x += UB_LANES) {
+            if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
+                return;
+            int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
+            UB_FN(ub_packet_rays) pr;
+            for (int l = 0; l < UB_LANES; l++) {
+                /* Padding lanes repeat the last real pixel; their results are discarded. */
+                double o[3], d[3];
+                UB_FN(pixel_ray)(sc->camera, hb->x0 + x + (l < n ? l : n - 1), hb->y0 + y, sample, o, d,
+                                 &pr.t_min[l], &pr.t_max[l]);
+                for (int i = 0; i < 3; i++) {
+                    pr.origin[i][l] = o[i];
+                    pr.dir[i][l] = d[i];
+                }
+                pr.t_base[l] = 0.0f;
+            }
+            UB_FN(ub_trace_result) tr;
+            UB_FN(trace)(sc, dps, &pr, (1 << n) - 1, sc->shading->sea, 0, NULL, &tr, cnt);
+            for (int l = 0; l < n; l++) {
+                ub_hit *h = &hb->hits[(size_t)y * hb->w + x + l];
+                h->t = tr.t[l];
+                h->iterations = tr.iters[l];
+                h->distance = tr.dist[l];
+                h->steps = tr.steps[l];
+                h->object = tr.object[l];
+                cnt->rays++;
+                cnt->steps += (uint64_t)tr.steps[l];
+            }
+        }
+    }
+}
+
+/* World position of the hit of buffer pixel (bx, by), or 0 if it is not a hit on `object`. */
+static int UB_FN(buffer_point)(const ub_scene *sc, int sample, int bx, int by, int object, double p[3], float *t)
+{
+    const ub_hit_buffer *hb = sc->hits;
+    if (bx < 0 || by < 0 || bx >= hb->w || by >= hb->h)
+        return 0;
+    const ub_hit *h = &hb->hits[(size_t)by * hb->w + bx];
+    if (h->object != object)
+        return 0;
+    double o[3], d[3], t0, t1;
+    UB_FN(pixel_ray)(sc->camera, hb->x0 + bx, hb->y0 + by, sample, o, d, &t0, &t1);
+    for (int i = 0; i < 3; i++)
+        p[i] = o[i] + (double)h->t * d[i];
+    *t = h->t;
+    return 1;
+}
+
+/* Eq. 12-14 with the neighbours' actual hit points (exact under perspective): the normal of the
+ * plane through the hit and its right/up neighbours. Of the two neighbours on an axis, the one
+ * nearer in depth on the same object is used, so silhouettes do not bend the normal. */
+static int UB_FN(zbuffer_normal)(const ub_scene *sc, int sample, int bx, int by, int object, const double p[3],
+                                 float t, const double dir[3], double n[3])
+{
+    double e[2][3];
+    for (int axis = 0; axis < 2; axis++) {
+        double best = HUGE_VAL;
+        int found = 0;
+        for (int side = 1; side >= -1; side -= 2) {
+            double q[3];
+            float tq;
+            int ok = axis == 0 ? UB_FN(buffer_point)(sc, sample, bx + side, by, object, q, &tq)
+                               : UB_FN(buffer_point)(sc, sample, bx, by + side, object, q, &tq);
+            if (!ok || !(fabs((double)tq - t) < best))
+                continue;
+            best = fabs((double)tq - t);
+            for (int i = 0; i < 3; i++)
+                e[axis][i] = side * (q[i] - p[i]);
+            found = 1;
+        }
+        if (!found)
+            return 0;
+    }
+    n[0] = e[0][1] * e[1][2] - e[0][2] * e[1][1];
+    n[1] = e[0][2] * e[1][0] - e[0][0] * e[1][2];
+    n[2] = e[0][0] * e[1][1] - e[0][1] * e[1][0];
+    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(len > 0.0) || !isfinite(len))
+        return 0;
+    double s = (n[0] * dir[0] + n[1] * dir[1] + n[2] * dir[2]) > 0.0 ? -1.0 / len : 1.0 / len;
+    for (int i = 0; i < 3; i++)
+        n[i] *= s;
+    return 1;
+}
+
+/* Gradient step of eq. 15, h = alpha Gamma(t), Gamma(t) = t^delta (Table 1), world units. */
+static inline double UB_FN(gradient_step)(const ub_object *o, double t)
+{
+    return o->normal_alpha * pow(t > 0.0 ? t : 0.0, o->normal_delta);
+}
+
+/* Per-lane state of one bounce of the shading phase. */
+typedef struct {
+    double p[3][UB_LANES];  /* hit point, world */
+    float n[3][UB_LANES];   /* unit normal facing the incoming ray */
+    float albedo[3][UB_LANES];
+    float trap[UB_LANES];
+    float reflectivity[UB_LANES];
+    float bias[UB_LANES];   /* offset of secondary ray origins off the surface */
+} UB_FN(ub_surface);
+
+/* Normals, colour and trap of the hits in `hit_lanes` of one bounce. */
+static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, int sample, int bounce, int fx,
+                           int fy, const UB_FN(ub_packet_rays) *pr, const UB_FN(ub_trace_result) *tr,
+                           int hit_lanes, int want_trap, UB_FN(ub_surface) *sf)
+{
+    const ub_shading *sh = sc->shading;
+    const ub_hit_buffer *hb = sc->hits;
+    double nw[3][UB_LANES];
+    int have_normal = 0, sea_lanes = 0;
+    for (int l = 0; l < UB_LANES; l++) {
+        double t = tr->t[l];
+        for (int i = 0; i < 3; i++) {
+            sf->p[i][l] = ((hit_lanes >> l) & 1) ? pr->origin[i][l] + t * pr->dir[i][l] : 0.0;
+            nw[i][l] = 0.0;
+        }
+        sf->trap[l] = 0.0f;
+        sf->reflectivity[l] = 0.0f;
+        sf->bias[l] = 0.0f;
+        if (((hit_lanes >> l) & 1) && tr->object[l] == UB_HIT_SEA)
+            sea_lanes |= 1 << l;
+    }
+    for (int k = 0; k < sc->object_count; k++) {
+        const ub_object *o = &sc->objects[k];
+        int mine = 0;
+        for (int l = 0; l < UB_LANES; l++)
+            if (((hit_lanes >> l) & 1) && tr->object[l] == k)
+                mine |= 1 << l;
+        if (!mine)
+            continue;
+        float q[4][UB_LANES], hb_[UB_LANES], e0[UB_LANES], e1[UB_LANES];
+        int simd_lanes = mine;
+        v_store(e0, dps[k].eps0);
+        v_store(e1, dps[k].eps1);
+        for (int l = 0; l < UB_LANES; l++) {
+            double wp[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, op[3];
+            float ql[4];
+            UB_FN(world_to_object_point)(o, wp, op);
+            UB_FN(to_quaternion)(o, op, ql);
+            for (int c = 0; c < 4; c++)
+                q[c][l] = ql[c];
+            double path = (double)pr->t_base[l] + tr->t[l];
+            hb_[l] = (float)(UB_FN(gradient_step)(o, path) / o->sigma_min);
+            if (!((mine >> l) & 1))
+                continue;
+            /* Secondary rays start a few hit thresholds off the surface. */
+            sf->bias[l] = 4.0f * (e0[l] + e1[l] * (float)path);
+            sf->reflectivity[l] = o->reflectivity;
+            if (o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0) {
+                double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, n[3];
+                double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+                if (UB_FN(zbuffer_normal)(sc, sample, fx + l + sc->film->x0 - hb->x0, fy + sc->film->y0 - hb->y0, k,
+                                          p, tr->t[l], d, n)) {
+                    for (int i = 0; i < 3; i++)
+                        nw[i][l] = n[i];
+                    simd_lanes &= ~(1 << l);
+                    have_normal |= 1 << l;
+                }
+            }
+        }
+        vf qv[4];
+        for (int c = 0; c < 4; c++)
+            qv[c] = v_load(q[c]);
+        if (simd_lanes) {
+            vf g[3];
+            int method = o->normal_method == UB_NORMAL_ZBUFFER ? UB_NORMAL_GRADIENT_DISTANCE : (int)o->normal_method;
+            UB_FN(object_normal)(o, &dps[k], qv, v_load(hb_), method, g);
+            float gb[3][UB_LANES];
+            for (int a = 0; a < 3; a++)
+                v_store(gb[a], g[a]);
+            for (int l = 0; l < UB_LANES; l++) {
+                if (!((simd_lanes >> l) & 1))
+                    continue;
+                /* Normals transform with the inverse transpose of object -> world. */
+                for (int i = 0; i < 3; i++)
+                    nw[i][l] = o->world_to_object[0][i] * gb[0][l] + o->world_to_object[1][i] * gb[1][l]
+                             + o->world_to_object[2][i] * gb[2][l];
+                have_normal |= 1 << l;
+            }
+        }
+        int need_trap = want_trap || o->color_mode == UB_COLOR_ORBIT_TRAP;
+        float tb[UB_LANES] = {0};
+        if (need_trap) {
+            vf dist, it;
+            UB_FN(ub_de_extra) x;
+            UB_FN(de_ext)(&dps[k], o, qv[0], qv[1], qv[2], qv[3], UB_WANT_TRAP, &dist, &it, &x);
+            v_store(tb, x.trap);
+        }
+        for (int l = 0; l < UB_LANES; l++) {
+            if (!((mine >> l) & 1))
+                continue;
+            sf->trap[l] = tb[l];
+            float c[3];
+            UB_FN(albedo)(o, tb[l], tr->iters[l], c);
+            for (int i = 0; i < 3; i++)
+                sf->albedo[i][l] = c[i];
+        }
+    }
+    if (sea_lanes) {
+        float sn[3][UB_LANES];
+        UB_FN(sea_normal)(sc, dps, sf->p, sn);
+        for (int l = 0; l < UB_LANES; l++) {
+            if (!((sea_lanes >> l) & 1))
+                continue;
+            for (int i = 0; i < 3; i++) {
+                nw[i][l] = sn[i][l];
+                sf->albedo[i][l] = sh->sea_color[i];
+            }
+            sf->reflectivity[l] = sh->sea_reflectivity;
+            sf->bias[l] = (float)(1e-4 * (1.0 + (double)pr->t_base[l] + tr->t[l]));
+            have_normal |= 1 << l;
+        }
+    }
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((hit_lanes >> l) & 1))
+            continue;
+        double len2 = nw[0][l] * nw[0][l] + nw[1][l] * nw[1][l] + nw[2][l] * nw[2][l];
+        double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+        if (!((have_normal >> l) & 1) || !(len2 > 0.0) || !isfinite(len2)) {
+            /* Flat estimate (deep inside the set): face the viewer. */
+            for (int i = 0; i < 3; i++)
+                nw[i][l] = -d[i];
+            len2 = 1.0;
+        }
+        double inv = 1.0 / sqrt(len2);
+        if (nw[0][l] * d[0] + nw[1][l] * d[1] + nw[2][l] * d[2] > 0.0)
+            inv = -inv;
+        for (int i = 0; i < 3; i++)
+            sf->n[i][l] = (float)(nw[i][l] * inv);
+    }
+}
+
+/* Direct light at the hits of one bounce: the axle light and the scene's lights, Lambertian
+ * (albedo / pi per unit of irradiance; the axle light is in units of the paper's shading,
+ * albedo * cos), with shadow rays toward each light. */
+static void UB_FN(direct_light)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, int bounce, int lanes,
+                                const UB_FN(ub_packet_rays) *pr, const UB_FN(ub_trace_result) *tr,
+                                const UB_FN(ub_surface) *sf, float direct[3][UB_LANES], float shadow[UB_LANES],
+                                ub_counters *cnt)
+{
+    const ub_shading *sh = sc->shading;
+    const ub_camera *cam = sc->camera;
+    float lit[UB_LANES] = {0}, unshadowed[UB_LANES] = {0};
+    for (int l = 0; l < UB_LANES; l++)
+        for (int i = 0; i < 3; i++)
+            direct[i][l] = 0.0f;
+    if (sh->axle_light != 0.0f) {
+        for (int l = 0; l < UB_LANES; l++) {
+            if (!((lanes >> l) & 1))
+                continue;
+            double toward[3];
+            if (bounce == 0 || cam->orthographic) {
+                for (int i = 0; i < 3; i++)
+                    toward[i] = bounce == 0 ? -pr->dir[i][l] : -cam->forward[i];
+            } else {
+                double len = 0.0;
+                for (int i = 0; i < 3; i++) {
+                    toward[i] = cam->position[i] - sf->p[i][l];
+                    len += toward[i] * toward[i];
+                }
+                len = sqrt(len);
+                for (int i = 0; i < 3; i++)
+                    toward[i] = len > 0.0 ? toward[i] / len : 0.0;
+            }
+            double c = sf->n[0][l] * toward[0] + sf->n[1][l] * toward[1] + sf->n[2][l] * toward[2];
+            if (c > 0.0)
+                for (int i = 0; i < 3; i++)
+                    direct[i][l] += (float)(sh->axle_light * c);
+        }
+    }
+    for (int j = 0; j < sh->light_count; j++) {
+        const ub_light *L = &sh->lights[j];
+        double E[3][UB_LANES], cosv[UB_LANES];
+        int cand = 0;
+        UB_FN(ub_packet_rays) sr;
+        float tan_angle[UB_LANES];
+        for (int l = 0; l < UB_LANES; l++) {
+            sr.t_base[l] = 0.0f;
+            sr.t_min[l] = 0.0;
+            sr.t_max[l] = 0.0;
+            tan_angle[l] = 0.0f;
+            for (int i = 0; i < 3; i++)
+                sr.origin[i][l] = sr.dir[i][l] = 0.0;
+            sr.dir[2][l] = 1.0;
+            if (!((lanes >> l) & 1))
+                continue;
+            double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, dl[3], dist, e[3], ta;
+            if (!UB_FN(light_sample)(L, p, dl, &dist, e, &ta))
+                continue;
+            double c = sf->n[0][l] * dl[0] + sf->n[1][l] * dl[1] + sf->n[2][l] * dl[2];
+            if (!(c > 0.0))
+                continue;
+            /* The sea is opaque: a light below it does not reach a point above it. */
+            if (sh->sea && p[2] > sh->sea_height + sf->bias[l]
+                && (dist == HUGE_VAL ? dl[2] < 0.0 : p[2] + dist * dl[2] < sh->sea_height))
+                continue;
+            cand |= 1 << l;
+            cosv[l] = c;
+            for (int i = 0; i < 3; i++)
+                E[i][l] = e[i] * M_1_PI;
+            for (int i = 0; i < 3; i++) {
+                sr.origin[i][l] = p[i] + sf->bias[l] * sf->n[i][l];
+                sr.dir[i][l] = dl[i];
+            }
+            sr.t_min[l] = sf->bias[l];
+            sr.t_max[l] = dist == HUGE_VAL ? 1e30 : dist;
+            sr.t_base[l] = pr->t_base[l] + tr->t[l];
+            tan_angle[l] = (float)ta;
+        }
+        if (!cand)
+            continue;
+        float vis[UB_LANES];
+        for (int l = 0; l < UB_LANES; l++)
+            vis[l] = 1.0f;
+        if (sh->shadows != UB_SHADOWS_NONE && L->cast_shadow) {
+            UB_FN(ub_trace_result) st;
+            int soft = sh->shadows == UB_SHADOWS_SOFT;
+            UB_FN(trace)(sc, dps, &sr, cand, 0, 1, soft ? tan_angle : NULL, &st, cnt);
+            for (int l = 0; l < UB_LANES; l++) {
+                if (!((cand >> l) & 1))
+                    continue;
+                cnt->steps += (uint64_t)st.steps[l];
+                if (st.object[l] != UB_HIT_NONE)
+                    vis[l] = 0.0f;
+                else if (soft && tan_angle[l] > 0.0f)
+                    vis[l] = st.penumbra[l] * st.penumbra[l] * (3.0f - 2.0f * st.penumbra[l]);
+            }
+        }
+        for (int l = 0; l < UB_LANES; l++) {
+            if (!((cand >> l) & 1))
+                continue;
+            float sum = 0.0f;
+            for (int i = 0; i < 3; i++) {
+                float e = (float)(E[i][l] * cosv[l]);
+                direct[i][l] += e * vis[l];
+                sum += e;
+            }
+            unshadowed[l] += sum;
+            lit[l] += sum * vis[l];
+        }
+    }
+    for (int l = 0; l < UB_LANES; l++)
+        shadow[l] = unshadowed[l] > 0.0f ? lit[l] / unshadowed[l] : 1.0f;
+}
+
+/* Writes (sample 0) or accumulates (later samples) one pass value; the last sample divides by
+ * the sample count. Data passes (depth, normal, position, ...) come from sample 0 alone: the
+ * pixel centre, as with one sample. */
+static inline void UB_FN(put)(float *buf, size_t idx, int chans, const float *v, int sample, int samples, int average)
+{
+    if (!buf)
+        return;
+    float *p = buf + idx * (size_t)chans;
+    if (!average) {
+        if (sample == 0)
+            memcpy(p, v, (size_t)chans * sizeof(float));
         return;
     }
-    p->eps0 = v_set1((float)(fixed ? o->epsilon * o->sigma_min : cam->footprint0 / o->detail));
-    p->eps1 = v_set1((float)(fixed ? 0.0 : cam->footprint1 / o->detail));
-}
-
-/* Distance estimate of section 3 at quaternion points q:
- *   d(z) = |f^n(z)| log|f^n(z)| / (2 |f^n'(z)|)
- * with f(z) = z^2 + mu iterated until |z| exceeds the escape radius or max_iterations is
- * reached. The running derivative obeys |f'| <- 2 |z| |f'| (|zh + hz| <= 2|z||h| in the
- * quaternions); we carry its square, 4 |z|^2 |f'|^2, to avoid a square root per iteration.
- * Points that never escape are in K_mu as far as we can tell: their estimate is 0 (a hit).
- * Writes the estimate (object units) and the escape count. */
-static inline void UB_FN(de)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf d, vf *dist, vf *iters)
-{
-    vf r2 = v_fma(a, a, v_fma(b, b, v_fma(c, c, v_mul(d, d))));
-    vf dr2 = v_set1(1.0f);
-    vf n = v_set1(0.0f);
-    vm active = m_from_bits(0xff);
-    vm escaped = m_false();
-    const vf four = v_set1(4.0f);
-    for (int it = 0; it < p->max_iterations; it++) {
-        /* z^2 = (a^2 - b^2 - c^2 - d^2, 2ab, 2ac, 2ad): the imaginary parts of z commute with
-         * the real part, and v*v = -|v|^2 for a pure imaginary v (eq. 2-4). */
-        vf a2 = v_add(a, a);
-        vf na = v_sub(v_fma(a, a, p->mu[0]), v_fma(b, b, v_fma(c, c, v_mul(d, d))));
-        vf nb = v_fma(a2, b, p->mu[1]);
-        vf nc = v_fma(a2, c, p->mu[2]);
-        vf nd = v_fma(a2, d, p->mu[3]);
-        vf ndr2 = v_mul(dr2, v_mul(four, r2));
-        vf nr2 = v_fma(na, na, v_fma(nb, nb, v_fma(nc, nc, v_mul(nd, nd))));
-        a = v_select(active, na, a);
-        b = v_select(active, nb, b);
-        c = v_select(active, nc, c);
-        d = v_select(active, nd, d);
-        dr2 = v_select(active, ndr2, dr2);
-        r2 = v_select(active, nr2, r2);
-        n = v_count(n, active);
-        vm out = m_and(active, v_gt(nr2, p->bail2));
-        escaped = m_or(escaped, out);
-        active = m_andnot(out, active);
-        if (!m_bits(active))
-            break;
-    }
-    /* |z| log|z| / (2|z'|) = sqrt(r2 / dr2) * log(r2) / 4. dr2 may overflow to +inf deep
-     * inside long orbits: the estimate is then 0, which is what it tends to anyway. */
-    vf est = v_mul(v_mul(v_sqrt(v_div(r2, dr2)), UB_FN(v_log)(r2)), v_set1(0.25f));
-    *dist = v_select(escaped, est, v_set1(0.0f));
-    *iters = n;
-}
-
-/* Per-lane state of rays against one object, prepared in double precision. */
-typedef struct {
-    float q_enter[4][UB_LANES]; /* quaternion point where the ray enters the bounding ball */
-    float q_dir[4][UB_LANES];   /* quaternion-space change per unit of world distance */
-    float t_enter[UB_LANES];    /* world distance along the ray at entry */
-    float s_max[UB_LANES];      /* distance marched from entry before giving up */
-} UB_FN(ub_object_rays);
-
-typedef struct {
-    double origin[3][UB_LANES], dir[3][UB_LANES];
-    double t_min[UB_LANES], t_max[UB_LANES];
-} UB_FN(ub_packet_rays);
-
-/* Clip each lane's ray against the object's bounding ball; returns the lanes that touch it. */
-static int UB_FN(object_rays)(const ub_object *o, const UB_FN(ub_packet_rays) *r, const float *t_limit,
-                              int lanes_in, UB_FN(ub_object_rays) *out)
-{
-    int lanes = 0;
-    for (int l = 0; l < UB_LANES; l++) {
-        double oo[3], od[3];
-        for (int i = 0; i < 3; i++) {
-            const double *w = o->world_to_object[i];
-            oo[i] = w[0] * r->origin[0][l] + w[1] * r->origin[1][l] + w[2] * r->origin[2][l] + w[3];
-            od[i] = w[0] * r->dir[0][l] + w[1] * r->dir[1][l] + w[2] * r->dir[2][l];
-        }
-        /* |oo + t od - c|^2 = R^2 */
-        double rel[3] = {oo[0] - o->bound_center[0], oo[1] - o->bound_center[1], oo[2] - o->bound_center[2]};
-        double qa = od[0] * od[0] + od[1] * od[1] + od[2] * od[2];
-        double qb = rel[0] * od[0] + rel[1] * od[1] + rel[2] * od[2];
-        double qc = rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2] - o->bound_radius * o->bound_radius;
-        double disc = qb * qb - qa * qc;
-        double t0 = 0.0, t1 = -1.0;
-        if (((lanes_in >> l) & 1) && o->bound_radius >= 0.0 && disc >= 0.0) {
-            double sq = sqrt(disc);
-            t0 = (-qb - sq) / qa;
-            t1 = (-qb + sq) / qa;
-            t0 = fmax(t0, r->t_min[l]);
-            t1 = fmin(t1, (double)t_limit[l]);
-        }
-        if (t1 >= t0) {
-            lanes |= 1 << l;
-        } else {
-            t0 = r->t_min[l];
-            t1 = t0;
-        }
-        double pe[3] = {oo[0] + t0 * od[0], oo[1] + t0 * od[1], oo[2] + t0 * od[2]};
-        for (int k = 0; k < 4; k++) {
-            const double *b = o->slice_basis[k];
-            out->q_enter[k][l] = (float)(o->slice_origin[k] + b[0] * pe[0] + b[1] * pe[1] + b[2] * pe[2]);
-            out->q_dir[k][l] = (float)(b[0] * od[0] + b[1] * od[1] + b[2] * od[2]);
-        }
-        out->t_enter[l] = (float)t0;
-        out->s_max[l] = (float)(t1 - t0);
-    }
-    return lanes;
-}
-
-typedef struct {
-    vf s;      /* distance from entry of the hit */
-    vf iters;  /* escape count there */
-    vf dist;   /* world-space estimate there */
-    vm hit;
-} UB_FN(ub_march_result);
-
-static inline vf UB_FN(threshold)(const UB_FN(ub_de_params) *p, vf t)
-{
-    return v_fma(p->eps1, t, p->eps0);
-}
-
-/* March one object's rays by unbounding spheres (section 3): step by the distance estimate
- * (times step_factor, at most max_step), a hit when it drops below the threshold. Section 3.3's
- * thin sets come for free: the threshold is the minimum increment, so a dendrite thinner than
- * it still stops the ray. */
-static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_de_params) *dp,
-                         const UB_FN(ub_object_rays) *r, int lanes, UB_FN(ub_march_result) *res,
-                         vf *steps, ub_counters *cnt)
-{
-    vf q0[4], qd[4];
-    for (int k = 0; k < 4; k++) {
-        q0[k] = v_load(r->q_enter[k]);
-        qd[k] = v_load(r->q_dir[k]);
-    }
-    const vf te = v_load(r->t_enter), s_max = v_load(r->s_max);
-    const vf sigma = v_set1((float)o->sigma_min);
-    const vf factor = v_set1((float)o->step_factor);
-    const vf max_step = v_set1((float)o->max_step);
-    vf s = v_set1(0.0f), prev = v_set1(0.0f);
-    vf hit_prev = prev, iter_sum = v_set1(0.0f);
-    vm active = m_from_bits(lanes);
-    res->hit = m_false();
-    res->s = s;
-    res->iters = v_set1(0.0f);
-    res->dist = v_set1(0.0f);
-    for (int step = 0; step < o->max_steps && m_bits(active); step++) {
-        if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
-            return;
-        vf dist, iters;
-        UB_FN(de)(dp, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
-                  v_fma(s, qd[3], q0[3]), &dist, &iters);
-        vf dw = v_mul(dist, sigma);
-        vf eps = UB_FN(threshold)(dp, v_add(te, s));
-        *steps = v_count(*steps, active);
-        iter_sum = v_add(iter_sum, v_select(active, iters, v_set1(0.0f)));
-        vm is_hit = m_and(active, v_lt(dw, eps));
-        res->hit = m_or(res->hit, is_hit);
-        res->s = v_select(is_hit, s, res->s);
-        res->iters = v_select(is_hit, iters, res->iters);
-        res->dist = v_select(is_hit, dw, res->dist);
-        hit_prev = v_select(is_hit, prev, hit_prev);
-        active = m_andnot(is_hit, active);
-        vf step_len = v_min(v_mul(dw, factor), max_step);
-        prev = v_select(active, s, prev);
-        s = v_select(active, v_add(s, step_len), s);
-        active = m_and(active, v_le(s, s_max));
-    }
-    /* Optional refinement: bisect between the last sample outside the threshold and the hit. */
-    vm refine = res->hit;
-    vf lo = hit_prev, hi = res->s;
-    for (int k = 0; k < o->bisection_steps && m_bits(refine); k++) {
-        vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
-        vf dist, iters;
-        UB_FN(de)(dp, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
-                  v_fma(mid, qd[3], q0[3]), &dist, &iters);
-        vf dw = v_mul(dist, sigma);
-        vm inside = m_and(refine, v_lt(dw, UB_FN(threshold)(dp, v_add(te, mid))));
-        vm outside = m_andnot(inside, refine);
-        iter_sum = v_add(iter_sum, v_select(refine, iters, v_set1(0.0f)));
-        hi = v_select(inside, mid, hi);
-        lo = v_select(outside, mid, lo);
-        res->iters = v_select(inside, iters, res->iters);
-        res->dist = v_select(inside, dw, res->dist);
-    }
-    res->s = hi;
-    float it[UB_LANES];
-    v_store(it, iter_sum);
-    for (int l = 0; l < UB_LANES; l++)
-        cnt->iterations += (uint64_t)it[l];
-}
-
-/* Gradient of the distance estimate by central differences (eq. 15), in object space. */
-static void UB_FN(gradient)(const ub_object *o, const UB_FN(ub_de_params) *dp, const vf q[4], vf h,
-                            vm lanes, vf grad[3], vf *work)
-{
-    for (int axis = 0; axis < 3; axis++) {
-        vf dpos, dneg, it, itn;
-        vf off[4];
-        for (int k = 0; k < 4; k++)
-            off[k] = v_mul(h, v_set1((float)o->slice_basis[k][axis]));
-        UB_FN(de)(dp, v_add(q[0], off[0]), v_add(q[1], off[1]), v_add(q[2], off[2]), v_add(q[3], off[3]),
-                  &dpos, &it);
-        UB_FN(de)(dp, v_sub(q[0], off[0]), v_sub(q[1], off[1]), v_sub(q[2], off[2]), v_sub(q[3], off[3]),
-                  &dneg, &itn);
-        grad[axis] = v_sub(dpos, dneg);
-        *work = v_add(*work, v_add(v_select(lanes, it, v_set1(0.0f)), v_select(lanes, itn, v_set1(0.0f))));
+    for (int c = 0; c < chans; c++) {
+        float acc = sample == 0 ? v[c] : p[c] + v[c];
+        if (sample == samples - 1 && samples > 1)
+            acc *= 1.0f / (float)samples;
+        p[c] = acc;
     }
 }
 
-static void UB_FN(write_pixel)(const ub_scene *sc, int fx, int fy, int hit, const float rgba[4],
-                               float depth, const float normal[3], const float pos[3], float iters,
-                               float steps, float dist)
-{
-    const ub_film *f = sc->film;
-    size_t idx = (size_t)fy * (size_t)f->w + (size_t)fx;
-    float *p;
-    if ((p = f->pass[UB_PASS_COMBINED]))
-        memcpy(p + 4 * idx, rgba, 4 * sizeof(float));
-    if ((p = f->pass[UB_PASS_ALPHA]))
-        p[idx] = hit ? 1.0f : 0.0f;
-    if ((p = f->pass[UB_PASS_DEPTH]))
-        p[idx] = depth;
-    if ((p = f->pass[UB_PASS_NORMAL]))
-        memcpy(p + 3 * idx, normal, 3 * sizeof(float));
-    if ((p = f->pass[UB_PASS_POSITION]))
-        memcpy(p + 3 * idx, pos, 3 * sizeof(float));
-    if ((p = f->pass[UB_PASS_ITERATIONS]))
-        p[idx] = iters;
-    if ((p = f->pass[UB_PASS_STEPS]))
-        p[idx] = steps;
-    if ((p = f->pass[UB_PASS_DISTANCE]))
-        p[idx] = dist;
-}
-
-/* Render film pixels [tx0, tx1) x [ty0, ty1) (window coordinates). */
-void UB_FN(ub_render_tile)(const ub_scene *sc, int tx0, int ty0, int tx1, int ty1, ub_counters *cnt)
+static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1, ub_counters *cnt)
 {
     const ub_camera *cam = sc->camera;
     const ub_film *film = sc->film;
+    const ub_shading *sh = sc->shading;
+    const ub_hit_buffer *hb = sc->hits;
     UB_FN(ub_de_params) dps[UB_MAX_OBJECTS];
     for (int k = 0; k < sc->object_count; k++)
         UB_FN(de_params)(&sc->objects[k], cam, &dps[k]);
+    const int want_trap = film->pass[UB_PASS_ORBIT_TRAP] != NULL;
+    const float glow_scale = 1.0f / 64.0f;
 
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
@@ -306,139 +427,192 @@ void UB_FN(ub_render_tile)(const ub_scene *sc, int tx0, int ty0, int tx1, int ty
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             int lanes = (1 << n) - 1;
             UB_FN(ub_packet_rays) pr;
+            UB_FN(ub_trace_result) tr;
             for (int l = 0; l < UB_LANES; l++) {
-                /* Padding lanes repeat the last real pixel; their results are discarded. */
-                int px = film->x0 + x + (l < n ? l : n - 1);
+                int lx = x + (l < n ? l : n - 1);
                 double o[3], d[3];
-                ub_camera_ray(cam, px + 0.5, film->y0 + y + 0.5, o, d, &pr.t_min[l], &pr.t_max[l]);
+                UB_FN(pixel_ray)(cam, film->x0 + lx, film->y0 + y, sample, o, d, &pr.t_min[l], &pr.t_max[l]);
                 for (int i = 0; i < 3; i++) {
                     pr.origin[i][l] = o[i];
                     pr.dir[i][l] = d[i];
                 }
+                pr.t_base[l] = 0.0f;
+                const ub_hit *h = &hb->hits[(size_t)(film->y0 + y - hb->y0) * hb->w + (film->x0 + lx - hb->x0)];
+                tr.t[l] = h->t;
+                tr.iters[l] = h->iterations;
+                tr.dist[l] = h->distance;
+                tr.steps[l] = h->steps;
+                tr.object[l] = h->object;
             }
-            float best_t[UB_LANES], best_iters[UB_LANES], best_dist[UB_LANES];
-            float best_q[4][UB_LANES];
-            int best_obj[UB_LANES];
+            float primary_steps[UB_LANES], primary_t[UB_LANES], primary_iters[UB_LANES], primary_dist[UB_LANES];
+            int primary_obj[UB_LANES];
+            double primary_dir[3][UB_LANES];
+            memcpy(primary_steps, tr.steps, sizeof primary_steps);
+            memcpy(primary_t, tr.t, sizeof primary_t);
+            memcpy(primary_iters, tr.iters, sizeof primary_iters);
+            memcpy(primary_dist, tr.dist, sizeof primary_dist);
+            memcpy(primary_obj, tr.object, sizeof primary_obj);
+            memcpy(primary_dir, pr.dir, sizeof primary_dir);
+
+            /* Radiance along each path: L += W * (local light), W the path's throughput after
+             * fog and reflectivity. Wr is the throughput without the first segment's fog, for
+             * the Reflection pass. */
+            float L[3][UB_LANES] = {{0}}, W[UB_LANES], Wr[UB_LANES], R[3][UB_LANES] = {{0}};
+            float pass_ao[UB_LANES], pass_shadow[UB_LANES], pass_trap[UB_LANES], fog0[UB_LANES];
+            float pass_diffuse[3][UB_LANES] = {{0}}, pass_ambient[3][UB_LANES] = {{0}};
+            double pos0[3][UB_LANES];
+            float nrm0[3][UB_LANES];
             for (int l = 0; l < UB_LANES; l++) {
-                best_t[l] = (float)pr.t_max[l];
-                best_obj[l] = -1;
-                best_iters[l] = best_dist[l] = 0.0f;
+                W[l] = 1.0f;
+                Wr[l] = 0.0f;
+                pass_ao[l] = 1.0f;
+                pass_shadow[l] = 1.0f;
+                pass_trap[l] = 0.0f;
+                fog0[l] = 0.0f;
+                for (int i = 0; i < 3; i++) {
+                    pos0[i][l] = 0.0;
+                    nrm0[i][l] = 0.0f;
+                }
             }
-            vf steps = v_set1(0.0f);
-            /* Several objects render as their union: the nearest hit wins, and each object's
-             * march stops at the nearest hit found so far. */
-            for (int k = 0; k < sc->object_count; k++) {
-                const ub_object *o = &sc->objects[k];
-                UB_FN(ub_object_rays) orays;
-                int active = UB_FN(object_rays)(o, &pr, best_t, lanes, &orays);
-                if (!active)
-                    continue;
-                UB_FN(ub_march_result) res;
-                UB_FN(march)(sc, o, &dps[k], &orays, active, &res, &steps, cnt);
-                int hits = m_bits(res.hit) & active;
-                if (!hits)
-                    continue;
-                float s[UB_LANES], it[UB_LANES], di[UB_LANES];
-                v_store(s, res.s);
-                v_store(it, res.iters);
-                v_store(di, res.dist);
+            int alive = lanes;
+            for (int bounce = 0; alive; bounce++) {
+                if (bounce > 0) {
+                    UB_FN(trace)(sc, dps, &pr, alive, sh->sea, 0, NULL, &tr, cnt);
+                    for (int l = 0; l < UB_LANES; l++)
+                        if ((alive >> l) & 1)
+                            cnt->steps += (uint64_t)tr.steps[l];
+                    if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
+                        return;
+                }
+                int hit_lanes = 0;
                 for (int l = 0; l < UB_LANES; l++) {
-                    if (!((hits >> l) & 1))
+                    if (!((alive >> l) & 1))
                         continue;
-                    float t = orays.t_enter[l] + s[l];
-                    if (!(t < best_t[l] || best_obj[l] < 0))
-                        continue;
-                    best_t[l] = t;
-                    best_obj[l] = k;
-                    best_iters[l] = it[l];
-                    best_dist[l] = di[l];
-                    for (int c = 0; c < 4; c++)
-                        best_q[c][l] = orays.q_enter[c][l] + s[l] * orays.q_dir[c][l];
+                    if (tr.object[l] == UB_HIT_NONE) {
+                        /* The world: the background colour, unfogged. */
+                        for (int i = 0; i < 3; i++) {
+                            L[i][l] += W[l] * film->background[i];
+                            if (bounce > 0)
+                                R[i][l] += Wr[l] * film->background[i];
+                        }
+                    } else {
+                        hit_lanes |= 1 << l;
+                    }
                 }
+                if (!hit_lanes)
+                    break;
+                UB_FN(ub_surface) sf;
+                UB_FN(surface)(sc, dps, sample, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
+                float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
+                UB_FN(direct_light)(sc, dps, bounce, hit_lanes, &pr, &tr, &sf, direct, shadow, cnt);
+                int use_ao = sh->ao_strength > 0.0f && sh->ao_samples > 0;
+                if (use_ao)
+                    UB_FN(ambient_occlusion)(sc, dps, hit_lanes, sf.p, sf.n, ao);
+                else
+                    for (int l = 0; l < UB_LANES; l++)
+                        ao[l] = 1.0f;
+                int last = bounce >= sh->reflection_depth;
+                int next = 0;
+                for (int l = 0; l < UB_LANES; l++) {
+                    if (!((hit_lanes >> l) & 1))
+                        continue;
+                    /* Without a further bounce the surface shows its own colour in full. */
+                    float r = last ? 0.0f : sf.reflectivity[l];
+                    float f = sh->fog_density > 0.0 ? (float)(1.0 - exp(-sh->fog_density * tr.t[l])) : 0.0f;
+                    float local[3], dif[3], amb[3];
+                    for (int i = 0; i < 3; i++) {
+                        dif[i] = (1.0f - r) * sf.albedo[i][l] * direct[i][l];
+                        amb[i] = (1.0f - r) * sf.albedo[i][l] * sh->ambient[i] * ao[l];
+                        local[i] = dif[i] + amb[i];
+                        L[i][l] += W[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
+                        if (bounce > 0)
+                            R[i][l] += Wr[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
+                    }
+                    if (bounce == 0) {
+                        for (int i = 0; i < 3; i++) {
+                            pass_diffuse[i][l] = dif[i];
+                            pass_ambient[i][l] = amb[i];
+                            pos0[i][l] = sf.p[i][l];
+                            nrm0[i][l] = sf.n[i][l];
+                        }
+                        pass_ao[l] = ao[l];
+                        pass_shadow[l] = shadow[l];
+                        pass_trap[l] = sf.trap[l];
+                        fog0[l] = f;
+                        Wr[l] = r;
+                    } else {
+                        Wr[l] *= (1.0f - f) * r;
+                    }
+                    W[l] *= (1.0f - f) * r;
+                    if (!(W[l] > 0.0f))
+                        continue;
+                    /* Mirror reflection about the normal (which faces the incoming ray). */
+                    double d[3] = {pr.dir[0][l], pr.dir[1][l], pr.dir[2][l]};
+                    double dn = d[0] * sf.n[0][l] + d[1] * sf.n[1][l] + d[2] * sf.n[2][l];
+                    for (int i = 0; i < 3; i++) {
+                        pr.dir[i][l] = d[i] - 2.0 * dn * sf.n[i][l];
+                        pr.origin[i][l] = sf.p[i][l] + sf.bias[l] * sf.n[i][l];
+                    }
+                    pr.t_base[l] += tr.t[l];
+                    pr.t_min[l] = sf.bias[l];
+                    pr.t_max[l] = 1e30;
+                    next |= 1 << l;
+                }
+                alive = next;
             }
-            if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
-                return;
-            /* Normals: one vectorised gradient per object over its lanes. */
-            float grad[3][UB_LANES];
-            memset(grad, 0, sizeof grad);
-            for (int k = 0; k < sc->object_count; k++) {
-                int mine = 0;
-                for (int l = 0; l < n; l++)
-                    if (best_obj[l] == k)
-                        mine |= 1 << l;
-                if (!mine)
-                    continue;
-                const ub_object *o = &sc->objects[k];
-                vf q[4], g[3];
-                for (int c = 0; c < 4; c++)
-                    q[c] = v_load(best_q[c]);
-                /* Offset of the order of the hit threshold, in object units. */
-                float hbuf[UB_LANES];
-                for (int l = 0; l < UB_LANES; l++)
-                    hbuf[l] = best_obj[l] == k ? best_t[l] : 1.0f;
-                vf h = v_div(UB_FN(threshold)(&dps[k], v_load(hbuf)), v_set1((float)o->sigma_min));
-                vf work = v_set1(0.0f);
-                UB_FN(gradient)(o, &dps[k], q, h, m_from_bits(mine), g, &work);
-                float wb[UB_LANES];
-                v_store(wb, work);
-                for (int l = 0; l < n; l++)
-                    cnt->iterations += (uint64_t)wb[l];
-                float gb[3][UB_LANES];
-                for (int a = 0; a < 3; a++)
-                    v_store(gb[a], g[a]);
-                for (int l = 0; l < n; l++)
-                    if ((mine >> l) & 1)
-                        for (int a = 0; a < 3; a++)
-                            grad[a][l] = gb[a][l];
-            }
-            float stp[UB_LANES];
-            v_store(stp, steps);
+
             for (int l = 0; l < n; l++) {
-                cnt->rays++;
-                cnt->steps += (uint64_t)stp[l];
-                if (best_obj[l] < 0) {
-                    const float zero3[3] = {0.0f, 0.0f, 0.0f};
-                    UB_FN(write_pixel)(sc, x + l, y, 0, film->background, UB_BACKGROUND_DEPTH, zero3, zero3,
-                                       0.0f, stp[l], 0.0f);
-                    continue;
-                }
-                const ub_object *o = &sc->objects[best_obj[l]];
-                double t = best_t[l];
-                double dw[3] = {pr.dir[0][l], pr.dir[1][l], pr.dir[2][l]};
-                double hp[3], nw[3], depth = 0.0, len2 = 0.0;
-                for (int i = 0; i < 3; i++) {
-                    hp[i] = pr.origin[i][l] + t * dw[i];
-                    depth += (hp[i] - cam->position[i]) * cam->forward[i];
-                }
-                /* Normals transform with the inverse transpose of object -> world. */
-                for (int i = 0; i < 3; i++) {
-                    nw[i] = o->world_to_object[0][i] * grad[0][l] + o->world_to_object[1][i] * grad[1][l]
-                          + o->world_to_object[2][i] * grad[2][l];
-                    len2 += nw[i] * nw[i];
-                }
-                if (!(len2 > 0.0) || !isfinite(len2)) {
-                    /* Flat estimate (deep inside the set): face the camera. */
-                    for (int i = 0; i < 3; i++)
-                        nw[i] = -dw[i];
-                    len2 = 1.0;
-                }
-                double inv = 1.0 / sqrt(len2), lambert = 0.0;
+                size_t idx = (size_t)y * (size_t)film->w + (size_t)(x + l);
+                int hit = primary_obj[l] != UB_HIT_NONE;
+                float g = sh->glow_strength > 0.0f ? sh->glow_strength * (1.0f - expf(-primary_steps[l] * glow_scale))
+                                                   : 0.0f;
+                float glow[3] = {g * sh->glow_color[0], g * sh->glow_color[1], g * sh->glow_color[2]};
+                float rgba[4] = {L[0][l] + glow[0], L[1][l] + glow[1], L[2][l] + glow[2],
+                                 hit ? 1.0f : film->background[3]};
+                float alpha = hit ? 1.0f : 0.0f, zero3[3] = {0, 0, 0};
+                double depth = 0.0;
                 float normal[3], pos[3];
                 for (int i = 0; i < 3; i++) {
-                    normal[i] = (float)(nw[i] * inv);
-                    pos[i] = (float)hp[i];
-                    lambert -= nw[i] * inv * dw[i];
+                    depth += (pos0[i][l] - cam->position[i]) * cam->forward[i];
+                    normal[i] = nrm0[i][l];
+                    pos[i] = (float)pos0[i][l];
                 }
-                /* Section 4: Lambertian diffuse with the light at the eye (the "axle light"). */
-                if (lambert < 0.0)
-                    lambert = 0.0;
-                float rgba[4] = {(float)(o->color[0] * lambert), (float)(o->color[1] * lambert),
-                                 (float)(o->color[2] * lambert), 1.0f};
-                UB_FN(write_pixel)(sc, x + l, y, 1, rgba, (float)depth, normal, pos, best_iters[l], stp[l],
-                                   best_dist[l]);
+                float depthf = hit ? (float)depth : UB_BACKGROUND_DEPTH;
+                float iters = hit ? primary_iters[l] : 0.0f, dist = hit ? primary_dist[l] : 0.0f;
+                float refl[3] = {R[0][l], R[1][l], R[2][l]};
+                float dif[3] = {pass_diffuse[0][l], pass_diffuse[1][l], pass_diffuse[2][l]};
+                float amb[3] = {pass_ambient[0][l], pass_ambient[1][l], pass_ambient[2][l]};
+                int S = sh->samples;
+                UB_FN(put)(film->pass[UB_PASS_COMBINED], idx, 4, rgba, sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_ALPHA], idx, 1, &alpha, sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_DEPTH], idx, 1, &depthf, sample, S, 0);
+                UB_FN(put)(film->pass[UB_PASS_NORMAL], idx, 3, hit ? normal : zero3, sample, S, 0);
+                UB_FN(put)(film->pass[UB_PASS_POSITION], idx, 3, hit ? pos : zero3, sample, S, 0);
+                UB_FN(put)(film->pass[UB_PASS_ITERATIONS], idx, 1, &iters, sample, S, 0);
+                UB_FN(put)(film->pass[UB_PASS_STEPS], idx, 1, &primary_steps[l], sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_DISTANCE], idx, 1, &dist, sample, S, 0);
+                UB_FN(put)(film->pass[UB_PASS_AO], idx, 1, &pass_ao[l], sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_SHADOW], idx, 1, &pass_shadow[l], sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_DIFFUSE], idx, 3, dif, sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_AMBIENT], idx, 3, amb, sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &pass_trap[l], sample, S, 1);
+                UB_FN(put)(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, 1);
+                (void)fog0;
+                (void)primary_t;
+                (void)primary_dir;
             }
         }
     }
+}
+
+void UB_FN(ub_render_tile)(const ub_scene *sc, int phase, int sample, int tx0, int ty0, int tx1, int ty1,
+                           ub_counters *cnt)
+{
+    if (phase == 0)
+        UB_FN(tile_primary)(sc, sample, tx0, ty0, tx1, ty1, cnt);
+    else
+        UB_FN(tile_shade)(sc, sample, tx0, ty0, tx1, ty1, cnt);
 }
 
 void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, float *estimate, float *iterations)
@@ -450,9 +624,11 @@ void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, floa
         size_t n = count - base < UB_LANES ? count - base : UB_LANES;
         for (size_t l = 0; l < UB_LANES; l++) {
             const float *p = xyz + 3 * (base + (l < n ? l : n - 1));
+            double pd[3] = {p[0], p[1], p[2]};
+            float ql[4];
+            UB_FN(to_quaternion)(o, pd, ql);
             for (int k = 0; k < 4; k++)
-                q[k][l] = (float)(o->slice_origin[k] + o->slice_basis[k][0] * p[0] + o->slice_basis[k][1] * p[1]
-                                  + o->slice_basis[k][2] * p[2]);
+                q[k][l] = ql[k];
         }
         vf dist, it;
         UB_FN(de)(&dp, v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &dist, &it);
@@ -462,6 +638,36 @@ void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, floa
         for (size_t l = 0; l < n; l++) {
             estimate[base + l] = db[l];
             iterations[base + l] = ib[l];
+        }
+    }
+}
+
+void UB_FN(ub_normals)(const ub_object *o, const float *xyz, const float *t, size_t count, float *normals)
+{
+    UB_FN(ub_de_params) dp;
+    UB_FN(de_params)(o, NULL, &dp);
+    int method = o->normal_method == UB_NORMAL_ZBUFFER ? UB_NORMAL_GRADIENT_DISTANCE : (int)o->normal_method;
+    for (size_t base = 0; base < count; base += UB_LANES) {
+        float q[4][UB_LANES], h[UB_LANES];
+        size_t n = count - base < UB_LANES ? count - base : UB_LANES;
+        for (size_t l = 0; l < UB_LANES; l++) {
+            size_t i = base + (l < n ? l : n - 1);
+            double pd[3] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+            float ql[4];
+            UB_FN(to_quaternion)(o, pd, ql);
+            for (int k = 0; k < 4; k++)
+                q[k][l] = ql[k];
+            h[l] = (float)(UB_FN(gradient_step)(o, t[i]) / o->sigma_min);
+        }
+        vf qv[4] = {v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3])}, g[3];
+        UB_FN(object_normal)(o, &dp, qv, v_load(h), method, g);
+        float gb[3][UB_LANES];
+        for (int a = 0; a < 3; a++)
+            v_store(gb[a], g[a]);
+        for (size_t l = 0; l < n; l++) {
+            double len = sqrt((double)gb[0][l] * gb[0][l] + (double)gb[1][l] * gb[1][l] + (double)gb[2][l] * gb[2][l]);
+            for (int a = 0; a < 3; a++)
+                normals[3 * (base + l) + a] = len > 0.0 ? (float)(gb[a][l] / len) : 0.0f;
         }
     }
 }

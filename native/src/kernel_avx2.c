@@ -1,4 +1,4 @@
-/* The marching kernel for x86-64 CPUs with AVX2 and FMA, chosen at run time (render.c). */
+/* The render kernel for x86-64 CPUs with AVX2 and FMA, chosen at run time (render.c). */
 #if defined(__x86_64__) || defined(_M_X64)
 #if defined(__GNUC__)
 #pragma GCC target("avx2,fma")
@@ -9,12 +9,16 @@
 #else
 /* Other architectures: the portable kernel is the only one. */
 #include "scene.h"
-void ub_render_tile_avx2(const ub_scene *s, int a, int b, int c, int d, ub_counters *k)
+void ub_render_tile_avx2(const ub_scene *s, int p, int k, int a, int b, int c, int d, ub_counters *n)
 {
-    ub_render_tile_portable(s, a, b, c, d, k);
+    ub_render_tile_portable(s, p, k, a, b, c, d, n);
 }
 void ub_estimate_avx2(const ub_object *o, const float *x, size_t n, float *e, float *i)
 {
     ub_estimate_portable(o, x, n, e, i);
+}
+void ub_normals_avx2(const ub_object *o, const float *x, const float *t, size_t n, float *out)
+{
+    ub_normals_portable(o, x, t, n, out);
 }
 #endif

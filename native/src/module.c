@@ -201,10 +201,50 @@ static int parse_camera(PyObject *o, ub_camera *cam)
 static const char *const object_keys[] = {
     "kind", "mu", "theta", "slice_basis", "slice_origin", "matrix", "max_iterations", "bailout",
     "epsilon_mode", "epsilon", "detail", "step_factor", "max_step", "max_steps", "bisection_steps",
-    "color", NULL,
+    "color", "normal_method", "normal_alpha", "normal_delta", "reflectivity", "color_mode", "color_ramp",
+    "ramp_scale", "ramp_offset", NULL,
 };
 static const char *const kind_names[] = {"quaternion_julia", NULL};
 static const char *const epsilon_modes[] = {"pixel", "fixed", NULL};
+static const char *const normal_methods[] = {"gradient_distance", "gradient_potential", "zbuffer", "analytic", NULL};
+static const char *const color_modes[] = {"base", "orbit_trap", "iterations", NULL};
+
+/* A colour ramp: a sequence of 2..UB_MAX_RAMP RGB triples, uniformly spaced over [0, 1]. */
+static int get_ramp(PyObject *o, const char *name, ub_object *obj)
+{
+    if (!PySequence_Check(o) || PyUnicode_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be a sequence of RGB triples", name);
+        return -1;
+    }
+    Py_ssize_t len = PySequence_Size(o);
+    if (len < 0)
+        return -1;
+    if (len < 2 || len > UB_MAX_RAMP) {
+        PyErr_Format(PyExc_ValueError, "%s must have 2 to %d colours, got %zd", name, UB_MAX_RAMP, len);
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < len; i++) {
+        PyObject *item = PySequence_GetItem(o, i);
+        if (!item)
+            return -1;
+        char sub[ERRBUF];
+        snprintf(sub, sizeof sub, "%s[%zd]", name, i);
+        double c[3];
+        int rc = get_vector(item, sub, 3, c);
+        Py_DECREF(item);
+        if (rc)
+            return -1;
+        for (int k = 0; k < 3; k++) {
+            if (c[k] < 0.0 || c[k] > 1e6) {
+                PyErr_Format(PyExc_ValueError, "%s colours must be within [0, 1e6]", name);
+                return -1;
+            }
+            obj->ramp[i][k] = (float)c[k];
+        }
+    }
+    obj->ramp_size = (int)len;
+    return 0;
+}
 
 static int parse_object(PyObject *o, const char *name, ub_object *obj)
 {
@@ -219,7 +259,10 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
     double mu[4] = {-0.2, 0.8, 0.0, 0.0}, theta = 0.0, basis[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
     double origin[4] = {0, 0, 0, 0}, matrix[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
     double color[3] = {0.8, 0.8, 0.8};
-    int kind = 0, mode = UB_EPSILON_PIXEL;
+    int kind = 0, mode = UB_EPSILON_PIXEL, normal_method = UB_NORMAL_GRADIENT_DISTANCE, color_mode = UB_COLOR_BASE;
+    double reflectivity = 0.0, ramp_scale = 1.0, ramp_offset = 0.0;
+    obj->normal_alpha = 1e-3;
+    obj->normal_delta = 1.0;
     obj->max_iterations = 16;
     obj->bailout = 4.0;
     obj->epsilon = 1e-3;
@@ -263,7 +306,33 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
         return -1;
     if (FIELD("color") && get_vector(v, sub, 3, color))
         return -1;
+    if (FIELD("normal_method") && get_choice(v, sub, normal_methods, &normal_method))
+        return -1;
+    if (FIELD("normal_alpha") && get_double(v, sub, 1e-9, 1e3, 0, &obj->normal_alpha))
+        return -1;
+    if (FIELD("normal_delta") && get_double(v, sub, 0.0, 4.0, 0, &obj->normal_delta))
+        return -1;
+    if (FIELD("reflectivity") && get_double(v, sub, 0.0, 1.0, 0, &reflectivity))
+        return -1;
+    if (FIELD("color_mode") && get_choice(v, sub, color_modes, &color_mode))
+        return -1;
+    if (FIELD("color_ramp") && v != Py_None && get_ramp(v, sub, obj))
+        return -1;
+    if (FIELD("ramp_scale") && get_double(v, sub, -1e6, 1e6, 0, &ramp_scale))
+        return -1;
+    if (FIELD("ramp_offset") && get_double(v, sub, -1e6, 1e6, 0, &ramp_offset))
+        return -1;
 #undef FIELD
+    for (int i = 0; i < 3; i++)
+        if (!(color[i] >= 0.0 && color[i] <= 1e6)) {
+            PyErr_Format(PyExc_ValueError, "%s.color components must be within [0, 1e6]", name);
+            return -1;
+        }
+    obj->normal_method = (ub_normal_method)normal_method;
+    obj->color_mode = (ub_color_mode)color_mode;
+    obj->reflectivity = (float)reflectivity;
+    obj->ramp_scale = (float)ramp_scale;
+    obj->ramp_offset = (float)ramp_offset;
     for (int i = 0; i < 4; i++)
         if (fabs(mu[i]) > 1e3 || fabs(origin[i]) > 1e3) {
             PyErr_Format(PyExc_ValueError, "%s: mu and slice_origin components must be within [-1000, 1000]", name);
@@ -313,6 +382,218 @@ static int parse_objects(PyObject *seq, ub_object *objs, int *count)
             return -1;
     }
     *count = (int)n;
+    return 0;
+}
+
+/* ---------------------------------------------------------------- shading */
+
+static const char *const shading_keys[] = {
+    "samples", "axle_light", "ambient", "shadows", "ao_strength", "ao_distance", "ao_samples", "reflection_depth",
+    "fog_density", "fog_color", "glow_strength", "glow_color", "sea", "lights", NULL,
+};
+static const char *const sea_keys[] = {"height", "wavelength", "amplitude", "color", "reflectivity", NULL};
+static const char *const light_keys[] = {"type", "position", "direction", "color", "radius", "spot_size",
+                                         "spot_blend", "cast_shadow", NULL};
+static const char *const light_types[] = {"point", "sun", "spot", "area", NULL};
+static const char *const shadow_modes[] = {"none", "hard", "soft", NULL};
+
+/* A colour: 3 numbers within [0, hi]. */
+static int get_color(PyObject *o, const char *name, double hi, float out[3])
+{
+    double c[3];
+    if (get_vector(o, name, 3, c))
+        return -1;
+    for (int i = 0; i < 3; i++) {
+        if (!(c[i] >= 0.0 && c[i] <= hi)) {
+            char msg[ERRBUF + 64];
+            snprintf(msg, sizeof msg, "%s components must be within [0, %g]", name, hi);
+            PyErr_SetString(PyExc_ValueError, msg);
+            return -1;
+        }
+        out[i] = (float)c[i];
+    }
+    return 0;
+}
+
+static int get_bool(PyObject *o, const char *name, int *out)
+{
+    if (!PyBool_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be True or False", name);
+        return -1;
+    }
+    *out = o == Py_True;
+    return 0;
+}
+
+static int parse_light(PyObject *o, const char *name, ub_light *L)
+{
+    if (!PyDict_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be a dict", name);
+        return -1;
+    }
+    if (check_keys(o, name, light_keys))
+        return -1;
+    memset(L, 0, sizeof *L);
+    int type = UB_LIGHT_POINT;
+    double dir[3] = {0, 0, -1}, spot_size = M_PI / 4, spot_blend = 0.15;
+    L->color[0] = L->color[1] = L->color[2] = 1.0f;
+    L->cast_shadow = 1;
+    char sub[ERRBUF];
+    PyObject *v;
+#define FIELD(key) ((v = lookup(o, key)) != NULL && (snprintf(sub, sizeof sub, "%s.%s", name, key), 1))
+    if (FIELD("type") && get_choice(v, sub, light_types, &type))
+        return -1;
+    if (FIELD("position") && get_vector(v, sub, 3, L->position))
+        return -1;
+    if (FIELD("direction") && get_vector(v, sub, 3, dir))
+        return -1;
+    if (FIELD("color") && get_color(v, sub, 1e12, L->color))
+        return -1;
+    if (FIELD("radius") && get_double(v, sub, 0.0, 1e9, 0, &L->radius))
+        return -1;
+    if (FIELD("spot_size") && get_double(v, sub, 0.0, M_PI, 0, &spot_size))
+        return -1;
+    if (FIELD("spot_blend") && get_double(v, sub, 0.0, 1.0, 0, &spot_blend))
+        return -1;
+    if (FIELD("cast_shadow") && get_bool(v, sub, &L->cast_shadow))
+        return -1;
+#undef FIELD
+    for (int i = 0; i < 3; i++)
+        if (fabs(L->position[i]) > 1e9) {
+            PyErr_Format(PyExc_ValueError, "%s.position components must be within [-1e9, 1e9]", name);
+            return -1;
+        }
+    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    if (!(len > 1e-12) || !isfinite(len)) {
+        PyErr_Format(PyExc_ValueError, "%s.direction must be a non-zero vector", name);
+        return -1;
+    }
+    for (int i = 0; i < 3; i++)
+        L->direction[i] = dir[i] / len;
+    L->type = (ub_light_type)type;
+    /* Blender's spot: spot_size is the full cone angle, spot_blend the fraction of the cone's
+     * cosine range over which it fades in. */
+    L->spot_cos_outer = cos(spot_size / 2);
+    L->spot_cos_inner = L->spot_cos_outer + (1.0 - L->spot_cos_outer) * spot_blend;
+    return 0;
+}
+
+static int parse_shading(PyObject *o, ub_shading *sh)
+{
+    memset(sh, 0, sizeof *sh);
+    sh->samples = 1;
+    sh->axle_light = 1.0f;
+    sh->shadows = UB_SHADOWS_HARD;
+    sh->ao_distance = 0.5;
+    sh->ao_samples = 5;
+    if (!o || o == Py_None)
+        return 0;
+    if (!PyDict_Check(o)) {
+        PyErr_SetString(PyExc_TypeError, "shading must be a dict of shading settings or None");
+        return -1;
+    }
+    if (check_keys(o, "shading", shading_keys))
+        return -1;
+    char sub[ERRBUF];
+    PyObject *v;
+    double x;
+    int mode;
+#define FIELD(key) ((v = lookup(o, key)) != NULL && (snprintf(sub, sizeof sub, "shading.%s", key), 1))
+    if (FIELD("samples") && get_int(v, sub, 1, UB_MAX_SAMPLES, &sh->samples))
+        return -1;
+    if (FIELD("axle_light")) {
+        if (get_double(v, sub, 0.0, 1e6, 0, &x))
+            return -1;
+        sh->axle_light = (float)x;
+    }
+    if (FIELD("ambient") && get_color(v, sub, 1e6, sh->ambient))
+        return -1;
+    if (FIELD("shadows")) {
+        if (get_choice(v, sub, shadow_modes, &mode))
+            return -1;
+        sh->shadows = (ub_shadow_mode)mode;
+    }
+    if (FIELD("ao_strength")) {
+        if (get_double(v, sub, 0.0, 1.0, 0, &x))
+            return -1;
+        sh->ao_strength = (float)x;
+    }
+    if (FIELD("ao_distance") && get_double(v, sub, 1e-6, 1e6, 0, &sh->ao_distance))
+        return -1;
+    if (FIELD("ao_samples") && get_int(v, sub, 1, UB_MAX_AO_SAMPLES, &sh->ao_samples))
+        return -1;
+    if (FIELD("reflection_depth") && get_int(v, sub, 0, UB_MAX_REFLECTION_DEPTH, &sh->reflection_depth))
+        return -1;
+    if (FIELD("fog_density") && get_double(v, sub, 0.0, 1e6, 0, &sh->fog_density))
+        return -1;
+    if (FIELD("fog_color") && get_color(v, sub, 1e6, sh->fog_color))
+        return -1;
+    if (FIELD("glow_strength")) {
+        if (get_double(v, sub, 0.0, 1e6, 0, &x))
+            return -1;
+        sh->glow_strength = (float)x;
+    }
+    if (FIELD("glow_color") && get_color(v, sub, 1e6, sh->glow_color))
+        return -1;
+    if (FIELD("sea") && v != Py_None) {
+        PyObject *sea = v, *w;
+        if (!PyDict_Check(sea)) {
+            PyErr_SetString(PyExc_TypeError, "shading.sea must be a dict (height, wavelength, amplitude, color, "
+                                             "reflectivity) or None");
+            return -1;
+        }
+        if (check_keys(sea, "shading.sea", sea_keys))
+            return -1;
+        sh->sea = 1;
+        sh->sea_height = 0.0;
+        sh->sea_wavelength = 0.25;
+        sh->sea_amplitude = 0.01;
+        sh->sea_color[0] = 0.1f;
+        sh->sea_color[1] = 0.25f;
+        sh->sea_color[2] = 0.4f;
+        sh->sea_reflectivity = 0.5f;
+        if ((w = lookup(sea, "height")) && get_double(w, "shading.sea.height", -1e9, 1e9, 0, &sh->sea_height))
+            return -1;
+        if ((w = lookup(sea, "wavelength"))
+            && get_double(w, "shading.sea.wavelength", 1e-6, 1e9, 0, &sh->sea_wavelength))
+            return -1;
+        if ((w = lookup(sea, "amplitude"))
+            && get_double(w, "shading.sea.amplitude", 0.0, 1e9, 0, &sh->sea_amplitude))
+            return -1;
+        if ((w = lookup(sea, "color")) && get_color(w, "shading.sea.color", 1e6, sh->sea_color))
+            return -1;
+        if ((w = lookup(sea, "reflectivity"))) {
+            if (get_double(w, "shading.sea.reflectivity", 0.0, 1.0, 0, &x))
+                return -1;
+            sh->sea_reflectivity = (float)x;
+        }
+    }
+    if (FIELD("lights")) {
+        if (!PyList_Check(v) && !PyTuple_Check(v)) {
+            PyErr_SetString(PyExc_TypeError, "shading.lights must be a list of dicts");
+            return -1;
+        }
+        Py_ssize_t n = PySequence_Size(v);
+        if (n < 0)
+            return -1;
+        if (n > UB_MAX_LIGHTS) {
+            PyErr_Format(PyExc_ValueError, "shading.lights: at most %d lights", UB_MAX_LIGHTS);
+            return -1;
+        }
+        for (Py_ssize_t i = 0; i < n; i++) {
+            PyObject *item = PySequence_GetItem(v, i);
+            if (!item)
+                return -1;
+            char name[64];
+            snprintf(name, sizeof name, "shading.lights[%zd]", i);
+            int rc = parse_light(item, name, &sh->lights[i]);
+            Py_DECREF(item);
+            if (rc)
+                return -1;
+        }
+        sh->light_count = (int)n;
+    }
+#undef FIELD
     return 0;
 }
 
@@ -411,18 +692,23 @@ static const char *const isa_names[] = {"auto", "avx2", "portable", NULL};
 static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *kwlist[] = {"camera", "objects", "passes", "window", "threads", "tile_size", "simd",
-                             "progress", "cancel", "background", "poll_interval", NULL};
+                             "progress", "cancel", "background", "poll_interval", "shading", NULL};
     PyObject *camera_o, *objects_o, *passes_o, *window_o = Py_None, *progress = Py_None, *cancel = Py_None;
     PyObject *threads_o = NULL, *tile_o = NULL, *simd_o = NULL, *background_o = NULL, *poll_o = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
+    PyObject *shading_o = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
                                      &window_o, &threads_o, &tile_o, &simd_o, &progress, &cancel,
-                                     &background_o, &poll_o))
+                                     &background_o, &poll_o, &shading_o))
         return NULL;
 
     ub_camera cam;
     ub_object *objs = PyMem_Calloc(UB_MAX_OBJECTS, sizeof(ub_object));
-    if (!objs)
+    ub_shading *shading = PyMem_Calloc(1, sizeof(ub_shading));
+    if (!objs || !shading) {
+        PyMem_Free(objs);
+        PyMem_Free(shading);
         return PyErr_NoMemory();
+    }
     Py_buffer views[UB_PASS_COUNT];
     int have[UB_PASS_COUNT] = {0};
     PyObject *result = NULL;
@@ -431,7 +717,7 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
     memset(&film, 0, sizeof film);
     ub_render_options opt = {0, 32, UB_ISA_AUTO, NULL, NULL, 10000000L};
 
-    if (parse_camera(camera_o, &cam) || parse_objects(objects_o, objs, &count))
+    if (parse_camera(camera_o, &cam) || parse_objects(objects_o, objs, &count) || parse_shading(shading_o, shading))
         goto done;
     film.x0 = 0;
     film.y0 = 0;
@@ -524,7 +810,7 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
 
     {
         volatile int cancel_flag = 0;
-        ub_scene scene = {&cam, objs, count, &film, &cancel_flag};
+        ub_scene scene = {&cam, objs, count, &film, shading, NULL, &cancel_flag};
         ub_render_stats stats;
         poll_state ps = {progress, cancel, NULL, 0, NULL, NULL, NULL};
         if (progress != Py_None || cancel != Py_None) {
@@ -554,6 +840,7 @@ done:
         if (have[i])
             PyBuffer_Release(&views[i]);
     PyMem_Free(objs);
+    PyMem_Free(shading);
     return result;
 }
 
@@ -610,6 +897,66 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
     Py_RETURN_NONE;
 }
 
+static PyObject *py_normals(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *kwlist[] = {"object", "points", "t", "normals", "simd", NULL};
+    PyObject *obj_o, *pts_o, *t_o, *n_o, *simd_o = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOO|$O", kwlist, &obj_o, &pts_o, &t_o, &n_o, &simd_o))
+        return NULL;
+    ub_object *obj = PyMem_Calloc(1, sizeof(ub_object));
+    if (!obj)
+        return PyErr_NoMemory();
+    PyObject *result = NULL;
+    int isa = UB_ISA_AUTO, have_p = 0, have_t = 0, have_n = 0;
+    Py_buffer pv, tv, nv;
+    if (parse_object(obj_o, "object", obj))
+        goto out;
+    if (simd_o && get_choice(simd_o, "simd", isa_names, &isa))
+        goto out;
+    if (isa == UB_ISA_AVX2 && !ub_cpu_has_avx2_fma()) {
+        PyErr_SetString(PyExc_ValueError, "simd='avx2' requested but this CPU lacks AVX2/FMA");
+        goto out;
+    }
+    if (PyObject_GetBuffer(pts_o, &pv, PyBUF_RECORDS_RO) != 0) {
+        PyErr_Clear();
+        PyErr_SetString(PyExc_TypeError, "points must be a float32 array of shape (n, 3)");
+        goto out;
+    }
+    have_p = 1;
+    Py_ssize_t n = pv.ndim == 2 ? pv.shape[0] : -1;
+    const char *fmt = pv.format ? pv.format : "B";
+    if (fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@')
+        fmt++;
+    if (n < 0 || pv.shape[1] != 3 || strcmp(fmt, "f") != 0 || pv.itemsize != 4 || !PyBuffer_IsContiguous(&pv, 'C')) {
+        PyErr_SetString(PyExc_ValueError, "points must be a C-contiguous float32 array of shape (n, 3)");
+        goto out;
+    }
+    if (get_float_buffer(t_o, "t", n, 0, 0, &tv))
+        goto out;
+    have_t = 1;
+    if (get_float_buffer(n_o, "normals", n, 3, 3, &nv))
+        goto out;
+    have_n = 1;
+    {
+        int avx2 = isa == UB_ISA_AVX2 || (isa == UB_ISA_AUTO && ub_cpu_has_avx2_fma());
+        Py_BEGIN_ALLOW_THREADS
+        if (n > 0)
+            (avx2 ? ub_normals_avx2 : ub_normals_portable)(obj, pv.buf, tv.buf, (size_t)n, nv.buf);
+        Py_END_ALLOW_THREADS
+    }
+    result = Py_None;
+    Py_INCREF(result);
+out:
+    if (have_p)
+        PyBuffer_Release(&pv);
+    if (have_t)
+        PyBuffer_Release(&tv);
+    if (have_n)
+        PyBuffer_Release(&nv);
+    PyMem_Free(obj);
+    return result;
+}
+
 static PyObject *py_camera_ray(PyObject *self, PyObject *args)
 {
     PyObject *cam_o;
@@ -654,7 +1001,10 @@ static PyObject *py_cpu_info(PyObject *self, PyObject *noargs)
 static PyMethodDef methods[] = {
     {"render", (PyCFunction)(void (*)(void))py_render, METH_VARARGS | METH_KEYWORDS,
      "render(camera, objects, passes, *, window=None, threads=0, tile_size=32, simd='auto', progress=None, "
-     "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01) -> stats dict"},
+     "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None) -> stats dict"},
+    {"normals", (PyCFunction)(void (*)(void))py_normals, METH_VARARGS | METH_KEYWORDS,
+     "normals(object, points, t, normals, *, simd='auto'): object-space unit normals at object-space points "
+     "by the object's normal_method (zbuffer: the distance gradient), gradient step alpha * t**delta"},
     {"estimate", (PyCFunction)(void (*)(void))py_estimate, METH_VARARGS | METH_KEYWORDS,
      "estimate(object, points, estimate, iterations, *, simd='auto'): distance estimate (object units) and "
      "escape count at object-space points, computed by the marching kernel's own arithmetic"},

@@ -29,6 +29,8 @@ int ub_cpu_count(void)
 typedef struct {
     const ub_scene *scene;
     ub_tile_kernel kernel;
+    int phase, sample;
+    int width, height;        /* region tiled: the hit buffer (phase 0) or the film (phase 1) */
     int tile, tiles_x, tile_count;
     int next_tile;            /* atomic: next tile to hand out */
     int tiles_done;           /* atomic */
@@ -55,7 +57,6 @@ static void *worker_main(void *arg)
      * the thread that computes them. */
     _mm_setcsr(0x1f80 | 0x8040);
 #endif
-    const ub_film *film = job->scene->film;
     for (;;) {
         if (__atomic_load_n(job->scene->cancel, __ATOMIC_RELAXED))
             break;
@@ -63,9 +64,9 @@ static void *worker_main(void *arg)
         if (t >= job->tile_count)
             break;
         int tx = (t % job->tiles_x) * job->tile, ty = (t / job->tiles_x) * job->tile;
-        int tx1 = tx + job->tile < film->w ? tx + job->tile : film->w;
-        int ty1 = ty + job->tile < film->h ? ty + job->tile : film->h;
-        job->kernel(job->scene, tx, ty, tx1, ty1, &job->per_thread[w->index]);
+        int tx1 = tx + job->tile < job->width ? tx + job->tile : job->width;
+        int ty1 = ty + job->tile < job->height ? ty + job->tile : job->height;
+        job->kernel(job->scene, job->phase, job->sample, tx, ty, tx1, ty1, &job->per_thread[w->index]);
         __atomic_fetch_add(&job->tiles_done, 1, __ATOMIC_RELEASE);
     }
     pthread_mutex_lock(&job->lock);
@@ -82,62 +83,50 @@ static double now_seconds(void)
     return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
-const char *ub_render(const ub_scene *scene, const ub_render_options *opt, ub_render_stats *stats)
+/* Runs one phase of one sample over its region on `threads` workers while the calling thread
+ * polls progress (reported as done_before + fraction of this job, over `total` jobs) and cancel.
+ * Returns the number of threads that ran. */
+static int run_job(ub_job *job, const ub_render_options *opt, int threads, ub_worker *workers, int job_index,
+                   int job_total)
 {
-    memset(stats, 0, sizeof *stats);
-    int use_avx2 = opt->isa == UB_ISA_AVX2 || (opt->isa == UB_ISA_AUTO && ub_cpu_has_avx2_fma());
-    if (opt->isa == UB_ISA_AVX2 && !ub_cpu_has_avx2_fma())
-        return "simd='avx2' requested but this CPU lacks AVX2/FMA";
-    ub_job job;
-    memset(&job, 0, sizeof job);
-    job.scene = scene;
-    job.kernel = use_avx2 ? ub_render_tile_avx2 : ub_render_tile_portable;
-    job.tile = opt->tile_size;
-    job.tiles_x = (scene->film->w + job.tile - 1) / job.tile;
-    int tiles_y = (scene->film->h + job.tile - 1) / job.tile;
-    job.tile_count = job.tiles_x * tiles_y;
-    int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
-    if (threads > job.tile_count)
-        threads = job.tile_count;
+    job->tiles_x = (job->width + job->tile - 1) / job->tile;
+    int tiles_y = (job->height + job->tile - 1) / job->tile;
+    job->tile_count = job->tiles_x * tiles_y;
+    job->next_tile = 0;
+    job->tiles_done = 0;
+    if (threads > job->tile_count)
+        threads = job->tile_count;
     if (threads < 1)
         threads = 1;
-    job.per_thread = calloc((size_t)threads, sizeof(ub_counters));
-    ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
-    if (!job.per_thread || !workers) {
-        free(job.per_thread);
-        free(workers);
-        return "out of memory";
-    }
-    double t0 = now_seconds();
-    pthread_mutex_init(&job.lock, NULL);
+    pthread_mutex_init(&job->lock, NULL);
     pthread_condattr_t cattr;
     pthread_condattr_init(&cattr);
     pthread_condattr_setclock(&cattr, CLOCK_MONOTONIC);
-    pthread_cond_init(&job.finished, &cattr);
+    pthread_cond_init(&job->finished, &cattr);
     pthread_condattr_destroy(&cattr);
-    job.workers_running = threads;
+    job->workers_running = threads;
     int started = 0;
     for (int i = 0; i < threads; i++) {
-        workers[i].job = &job;
+        workers[i].job = job;
         workers[i].index = i;
+        workers[i].started = 0;
         if (pthread_create(&workers[i].thread, NULL, worker_main, &workers[i]) == 0) {
             workers[i].started = 1;
             started++;
         } else {
-            pthread_mutex_lock(&job.lock);
-            job.workers_running--;
-            pthread_mutex_unlock(&job.lock);
+            pthread_mutex_lock(&job->lock);
+            job->workers_running--;
+            pthread_mutex_unlock(&job->lock);
         }
     }
     if (!started) {
         /* No thread could be created: render on the calling thread. */
-        job.workers_running = 1;
-        workers[0].started = 0;
+        job->workers_running = 1;
         worker_main(&workers[0]);
     }
     /* Poll: report progress and let the caller cancel, until the workers are done. */
-    pthread_mutex_lock(&job.lock);
-    while (job.workers_running > 0) {
+    pthread_mutex_lock(&job->lock);
+    while (job->workers_running > 0) {
         struct timespec deadline;
         clock_gettime(CLOCK_MONOTONIC, &deadline);
         deadline.tv_nsec += opt->poll_interval_ns;
@@ -145,31 +134,82 @@ const char *ub_render(const ub_scene *scene, const ub_render_options *opt, ub_re
             deadline.tv_nsec -= 1000000000L;
             deadline.tv_sec++;
         }
-        pthread_cond_timedwait(&job.finished, &job.lock, &deadline);
-        if (job.workers_running > 0 && opt->poll) {
-            pthread_mutex_unlock(&job.lock);
-            double frac = (double)__atomic_load_n(&job.tiles_done, __ATOMIC_ACQUIRE) / job.tile_count;
-            if (opt->poll(opt->poll_data, frac))
-                __atomic_store_n(scene->cancel, 1, __ATOMIC_RELAXED);
-            pthread_mutex_lock(&job.lock);
+        pthread_cond_timedwait(&job->finished, &job->lock, &deadline);
+        if (job->workers_running > 0 && opt->poll) {
+            pthread_mutex_unlock(&job->lock);
+            double frac = (double)__atomic_load_n(&job->tiles_done, __ATOMIC_ACQUIRE) / job->tile_count;
+            if (opt->poll(opt->poll_data, (job_index + frac) / job_total))
+                __atomic_store_n(job->scene->cancel, 1, __ATOMIC_RELAXED);
+            pthread_mutex_lock(&job->lock);
         }
     }
-    pthread_mutex_unlock(&job.lock);
+    pthread_mutex_unlock(&job->lock);
     for (int i = 0; i < threads; i++)
         if (workers[i].started)
             pthread_join(workers[i].thread, NULL);
+    pthread_cond_destroy(&job->finished);
+    pthread_mutex_destroy(&job->lock);
+    return started ? started : 1;
+}
+
+const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub_render_stats *stats)
+{
+    memset(stats, 0, sizeof *stats);
+    int use_avx2 = opt->isa == UB_ISA_AVX2 || (opt->isa == UB_ISA_AUTO && ub_cpu_has_avx2_fma());
+    if (opt->isa == UB_ISA_AVX2 && !ub_cpu_has_avx2_fma())
+        return "simd='avx2' requested but this CPU lacks AVX2/FMA";
+    const ub_film *film = scene_in->film;
+    const ub_camera *cam = scene_in->camera;
+    /* The hit buffer: the window plus a one-pixel apron inside the image. */
+    ub_hit_buffer hb;
+    hb.x0 = film->x0 > 0 ? film->x0 - 1 : 0;
+    hb.y0 = film->y0 > 0 ? film->y0 - 1 : 0;
+    int x1 = film->x0 + film->w < cam->width ? film->x0 + film->w + 1 : cam->width;
+    int y1 = film->y0 + film->h < cam->height ? film->y0 + film->h + 1 : cam->height;
+    hb.w = x1 - hb.x0;
+    hb.h = y1 - hb.y0;
+    hb.hits = malloc((size_t)hb.w * (size_t)hb.h * sizeof(ub_hit));
+    ub_scene scene = *scene_in;
+    scene.hits = &hb;
+    int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
+    ub_counters *per_thread = calloc((size_t)threads, sizeof(ub_counters));
+    ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
+    if (!per_thread || !workers || !hb.hits) {
+        free(per_thread);
+        free(workers);
+        free(hb.hits);
+        return "out of memory (the image is too large for this machine)";
+    }
+    double t0 = now_seconds();
+    int samples = scene.shading->samples, ran = 1;
+    for (int s = 0; s < samples && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); s++) {
+        for (int phase = 0; phase < 2 && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); phase++) {
+            ub_job job;
+            memset(&job, 0, sizeof job);
+            job.scene = &scene;
+            job.kernel = use_avx2 ? ub_render_tile_avx2 : ub_render_tile_portable;
+            job.phase = phase;
+            job.sample = s;
+            job.width = phase == 0 ? hb.w : film->w;
+            job.height = phase == 0 ? hb.h : film->h;
+            job.tile = opt->tile_size;
+            job.per_thread = per_thread;
+            int r = run_job(&job, opt, threads, workers, 2 * s + phase, 2 * samples);
+            if (r > ran)
+                ran = r;
+        }
+    }
     stats->seconds = now_seconds() - t0;
     for (int i = 0; i < threads; i++) {
-        stats->counters.rays += job.per_thread[i].rays;
-        stats->counters.steps += job.per_thread[i].steps;
-        stats->counters.iterations += job.per_thread[i].iterations;
+        stats->counters.rays += per_thread[i].rays;
+        stats->counters.steps += per_thread[i].steps;
+        stats->counters.iterations += per_thread[i].iterations;
     }
-    stats->threads = started ? started : 1;
+    stats->threads = ran;
     stats->isa = use_avx2 ? "avx2" : "portable";
-    stats->cancelled = __atomic_load_n(scene->cancel, __ATOMIC_RELAXED) != 0;
-    pthread_cond_destroy(&job.finished);
-    pthread_mutex_destroy(&job.lock);
-    free(job.per_thread);
+    stats->cancelled = __atomic_load_n(scene.cancel, __ATOMIC_RELAXED) != 0;
+    free(per_thread);
     free(workers);
+    free(hb.hits);
     return NULL;
 }

@@ -7,8 +7,30 @@
 
 const char *const ub_pass_names[UB_PASS_COUNT] = {
     "combined", "alpha", "depth", "normal", "position", "iterations", "steps", "distance",
+    "ao", "shadow", "diffuse", "ambient", "reflection", "orbit_trap", "glow",
 };
-const int ub_pass_channels[UB_PASS_COUNT] = {4, 1, 1, 3, 3, 1, 1, 1};
+const int ub_pass_channels[UB_PASS_COUNT] = {4, 1, 1, 3, 3, 1, 1, 1, 1, 1, 3, 3, 3, 1, 3};
+
+/* Radical inverse in base b of i: the Halton sequence's coordinate. */
+static double radical_inverse(int i, int b)
+{
+    double inv = 1.0 / b, f = inv, r = 0.0;
+    while (i > 0) {
+        r += f * (i % b);
+        i /= b;
+        f *= inv;
+    }
+    return r;
+}
+
+void ub_sample_offset(int sample, double *dx, double *dy)
+{
+    /* Halton points are stratified at every prefix length; the Cranley-Patterson shift by
+     * (1/2, 1/2) puts sample 0 at the pixel centre, so one sample is the classic render. */
+    double x = radical_inverse(sample, 2) + 0.5, y = radical_inverse(sample, 3) + 0.5;
+    *dx = x - floor(x);
+    *dy = y - floor(y);
+}
 
 static double det3(const double m[3][3])
 {

@@ -16,6 +16,11 @@
 #define UB_MAX_BISECTION 64
 #define UB_MAX_MARCH_STEPS_LIMIT 1000000
 #define UB_MAX_BAILOUT 1.0e6
+#define UB_MAX_LIGHTS 64
+#define UB_MAX_SAMPLES 4096
+#define UB_MAX_REFLECTION_DEPTH 16
+#define UB_MAX_AO_SAMPLES 32
+#define UB_MAX_RAMP 256
 
 /* Depth written for background pixels: the value Cycles writes into its Depth pass for a miss. */
 #define UB_BACKGROUND_DEPTH 1.0e10f
@@ -41,6 +46,16 @@ typedef struct {
 } ub_camera;
 
 typedef enum { UB_KIND_QUATERNION_JULIA = 0 } ub_fractal_kind;
+
+/* Normal approximations of section 4.1. */
+typedef enum {
+    UB_NORMAL_GRADIENT_DISTANCE = 0, /* eq. 15 on the distance estimate d() */
+    UB_NORMAL_GRADIENT_POTENTIAL,    /* eq. 15 on the potential G() */
+    UB_NORMAL_ZBUFFER,               /* eq. 12-14: neighbouring pixels' hits (camera rays only) */
+    UB_NORMAL_ANALYTIC,              /* gradient of |f^n| through the iteration's Jacobian */
+} ub_normal_method;
+
+typedef enum { UB_COLOR_BASE = 0, UB_COLOR_ORBIT_TRAP, UB_COLOR_ITERATIONS } ub_color_mode;
 
 typedef struct {
     ub_fractal_kind kind;
@@ -71,7 +86,56 @@ typedef struct {
     int max_steps;             /* cap on marching steps per ray */
     int bisection_steps;       /* refinement of the hit between the last two samples */
     float color[3];
+    /* Shading (section 4). The gradient step of eq. 15 is alpha * Gamma(t), Gamma(t) = t^delta,
+     * t the distance travelled from the eye (Table 1), in world units. */
+    ub_normal_method normal_method;
+    double normal_alpha, normal_delta;
+    float reflectivity;
+    ub_color_mode color_mode;
+    /* Colour ramp sampled uniformly over [0, 1]; the ramp position is
+     * clamp(value * ramp_scale + ramp_offset), value the orbit trap or iterations / max. */
+    int ramp_size;
+    float ramp[UB_MAX_RAMP][3];
+    float ramp_scale, ramp_offset;
 } ub_object;
+
+typedef enum { UB_LIGHT_POINT = 0, UB_LIGHT_SUN, UB_LIGHT_SPOT, UB_LIGHT_AREA } ub_light_type;
+
+typedef struct {
+    ub_light_type type;
+    double position[3];
+    double direction[3];  /* unit: where the light points (sun, spot, area emit along it) */
+    /* Irradiance scale: sun, E = color (W/m^2 per channel); point, spot and area,
+     * E = color / r^2 (area: times the emitter's cosine). */
+    float color[3];
+    double radius;        /* source radius (sun: tangent of the angular radius), soft shadows */
+    double spot_cos_outer, spot_cos_inner; /* spot cone: smooth step between these cosines */
+    int cast_shadow;
+} ub_light;
+
+typedef enum { UB_SHADOWS_NONE = 0, UB_SHADOWS_HARD, UB_SHADOWS_SOFT } ub_shadow_mode;
+
+/* Scene-wide shading: lights, the paper's axle light, effects, the sea of Fig. 5, samples. */
+typedef struct {
+    int samples;               /* anti-aliasing samples per pixel */
+    float axle_light;          /* light at the eye: 1 lights a white surface facing the eye to 1 */
+    float ambient[3];
+    ub_shadow_mode shadows;
+    float ao_strength;         /* 0: no ambient occlusion */
+    double ao_distance;        /* world distance of the farthest AO sample */
+    int ao_samples;
+    int reflection_depth;      /* 0: no reflections */
+    double fog_density;        /* 1/world units; 0: no fog */
+    float fog_color[3];
+    float glow_strength;
+    float glow_color[3];
+    int sea;                   /* the sea of Fig. 5: a plane z = sea_height in world space */
+    double sea_height, sea_wavelength, sea_amplitude;
+    float sea_color[3];
+    float sea_reflectivity;
+    int light_count;
+    ub_light lights[UB_MAX_LIGHTS];
+} ub_shading;
 
 typedef enum {
     UB_PASS_COMBINED = 0, /* RGBA */
@@ -82,6 +146,13 @@ typedef enum {
     UB_PASS_ITERATIONS,   /* escape count at the hit */
     UB_PASS_STEPS,        /* marching steps of the ray (every pixel, background included) */
     UB_PASS_DISTANCE,     /* final distance estimate at the hit, world units */
+    UB_PASS_AO,           /* ambient occlusion: 1 in the open */
+    UB_PASS_SHADOW,       /* fraction of the direct light that is not shadowed */
+    UB_PASS_DIFFUSE,      /* direct light (lights and axle light) times colour */
+    UB_PASS_AMBIENT,      /* ambient light times colour times AO */
+    UB_PASS_REFLECTION,   /* reflected light */
+    UB_PASS_ORBIT_TRAP,   /* orbit trap value at the hit: min |z_k| over the orbit */
+    UB_PASS_GLOW,         /* glow from the marching steps */
     UB_PASS_COUNT
 } ub_pass_id;
 
@@ -100,21 +171,52 @@ typedef struct {
     uint64_t rays, steps, iterations;
 } ub_counters;
 
+/* What the camera ray of one pixel (one sample) hit: written by the primary phase, read by the
+ * shading phase (the Z-buffer normals of eq. 12-14 need the neighbours' hits). */
+#define UB_HIT_NONE (-1)
+#define UB_HIT_SEA (-2)
+typedef struct {
+    float t;           /* world distance along the ray */
+    float iterations, distance, steps;
+    int object;        /* index, UB_HIT_NONE or UB_HIT_SEA */
+} ub_hit;
+
+typedef struct {
+    /* Pixels [x0, x0+w) x [y0, y0+h) of the full image: the film's window plus a one-pixel
+     * apron (clipped to the image), so normals at a window's edge equal the full render's. */
+    int x0, y0, w, h;
+    ub_hit *hits;
+} ub_hit_buffer;
+
 typedef struct {
     const ub_camera *camera;
     const ub_object *objects;
     int object_count;
     const ub_film *film;
+    const ub_shading *shading;
+    ub_hit_buffer *hits;
     /* Set to non-zero from any thread to stop the render at the next marching step. */
     volatile int *cancel;
 } ub_scene;
 
-/* One rectangle of the film rendered by one thread: packets of UB_LANES pixels along rows. */
-typedef void (*ub_tile_kernel)(const ub_scene *scene, int tx0, int ty0, int tx1, int ty1,
+/* Sub-pixel offset of anti-aliasing sample s: Halton (2, 3) shifted so sample 0 is the centre. */
+void ub_sample_offset(int sample, double *dx, double *dy);
+
+/* One rectangle rendered by one thread, in packets of UB_LANES pixels along rows.
+ * Phase 0 traces camera rays of `sample` into the hit buffer (coordinates relative to it);
+ * phase 1 shades them and accumulates the film (coordinates relative to the film window). */
+typedef void (*ub_tile_kernel)(const ub_scene *scene, int phase, int sample, int tx0, int ty0, int tx1, int ty1,
                                ub_counters *counters);
 
-void ub_render_tile_avx2(const ub_scene *, int, int, int, int, ub_counters *);
-void ub_render_tile_portable(const ub_scene *, int, int, int, int, ub_counters *);
+void ub_render_tile_avx2(const ub_scene *, int, int, int, int, int, int, ub_counters *);
+void ub_render_tile_portable(const ub_scene *, int, int, int, int, int, int, ub_counters *);
+
+/* Normals at object-space points with the object's own method (the Z-buffer method falls back
+ * to the distance gradient), for tests: n points xyz, path lengths t (for alpha * t^delta),
+ * writes object-space unit normals. */
+typedef void (*ub_normal_kernel)(const ub_object *obj, const float *xyz, const float *t, size_t n, float *normals);
+void ub_normals_avx2(const ub_object *, const float *, const float *, size_t, float *);
+void ub_normals_portable(const ub_object *, const float *, const float *, size_t, float *);
 
 /* Distance estimate and escape count at object-space points (the kernels' own arithmetic),
  * for tests: n points, xyz interleaved; writes estimate (object units) and iterations. */

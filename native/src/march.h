@@ -1,0 +1,236 @@
+/* Marching rays through the scene by unbounding spheres (section 3): clipping to each object's
+ * bounding ball (section 3.4), the march itself with bisection of the hit, and the union of
+ * several objects and the sea plane. Included by kernel.h, compiled once per SIMD flavour. */
+
+/* A packet of world-space rays, one per lane, in double precision. t_base is the distance the
+ * path had already travelled before this ray started (secondary rays): pixel-relative hit
+ * thresholds grow with the whole path, like a ray cone. */
+typedef struct {
+    double origin[3][UB_LANES], dir[3][UB_LANES];
+    double t_min[UB_LANES], t_max[UB_LANES];
+    float t_base[UB_LANES];
+} UB_FN(ub_packet_rays);
+
+/* Per-lane state of rays against one object, prepared in double precision. */
+typedef struct {
+    float q_enter[4][UB_LANES]; /* quaternion point where the ray enters the bounding ball */
+    float q_dir[4][UB_LANES];   /* quaternion-space change per unit of world distance */
+    float t_enter[UB_LANES];    /* world distance along the ray at entry */
+    float s_max[UB_LANES];      /* distance marched from entry before giving up */
+} UB_FN(ub_object_rays);
+
+/* Clip each lane's ray against the object's bounding ball; returns the lanes that touch it. */
+static int UB_FN(object_rays)(const ub_object *o, const UB_FN(ub_packet_rays) *r, const float *t_limit,
+                              int lanes_in, UB_FN(ub_object_rays) *out)
+{
+    int lanes = 0;
+    for (int l = 0; l < UB_LANES; l++) {
+        double oo[3], od[3];
+        for (int i = 0; i < 3; i++) {
+            const double *w = o->world_to_object[i];
+            oo[i] = w[0] * r->origin[0][l] + w[1] * r->origin[1][l] + w[2] * r->origin[2][l] + w[3];
+            od[i] = w[0] * r->dir[0][l] + w[1] * r->dir[1][l] + w[2] * r->dir[2][l];
+        }
+        /* |oo + t od - c|^2 = R^2 */
+        double rel[3] = {oo[0] - o->bound_center[0], oo[1] - o->bound_center[1], oo[2] - o->bound_center[2]};
+        double qa = od[0] * od[0] + od[1] * od[1] + od[2] * od[2];
+        double qb = rel[0] * od[0] + rel[1] * od[1] + rel[2] * od[2];
+        double qc = rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2] - o->bound_radius * o->bound_radius;
+        double disc = qb * qb - qa * qc;
+        double t0 = 0.0, t1 = -1.0;
+        if (((lanes_in >> l) & 1) && o->bound_radius >= 0.0 && disc >= 0.0) {
+            double sq = sqrt(disc);
+            t0 = (-qb - sq) / qa;
+            t1 = (-qb + sq) / qa;
+            t0 = fmax(t0, r->t_min[l]);
+            t1 = fmin(t1, (double)t_limit[l]);
+        }
+        if (t1 >= t0) {
+            lanes |= 1 << l;
+        } else {
+            t0 = r->t_min[l];
+            t1 = t0;
+        }
+        double pe[3] = {oo[0] + t0 * od[0], oo[1] + t0 * od[1], oo[2] + t0 * od[2]};
+        for (int k = 0; k < 4; k++) {
+            const double *b = o->slice_basis[k];
+            out->q_enter[k][l] = (float)(o->slice_origin[k] + b[0] * pe[0] + b[1] * pe[1] + b[2] * pe[2]);
+            out->q_dir[k][l] = (float)(b[0] * od[0] + b[1] * od[1] + b[2] * od[2]);
+        }
+        out->t_enter[l] = (float)t0;
+        out->s_max[l] = (float)(t1 - t0);
+    }
+    return lanes;
+}
+
+typedef struct {
+    vf s;      /* distance from entry of the hit */
+    vf iters;  /* escape count there */
+    vf dist;   /* world-space estimate there */
+    vm hit;
+} UB_FN(ub_march_result);
+
+static inline vf UB_FN(threshold)(const UB_FN(ub_de_params) *p, vf t)
+{
+    return v_fma(p->eps1, t, p->eps0);
+}
+
+/* March one object's rays by unbounding spheres (section 3): step by the distance estimate
+ * (times step_factor, at most max_step), a hit when it drops below the threshold. Section 3.3's
+ * thin sets come for free: the threshold is the minimum increment, so a dendrite thinner than
+ * it still stops the ray. With `penumbra` (shadow rays), also tracks min d / (t tan(angle)):
+ * how nearly the ray missed, relative to the light's apparent size (soft shadows). */
+static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_de_params) *dp,
+                         const UB_FN(ub_object_rays) *r, vf t_base, int lanes, UB_FN(ub_march_result) *res,
+                         vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
+{
+    vf q0[4], qd[4];
+    for (int k = 0; k < 4; k++) {
+        q0[k] = v_load(r->q_enter[k]);
+        qd[k] = v_load(r->q_dir[k]);
+    }
+    const vf te = v_load(r->t_enter), s_max = v_load(r->s_max);
+    const vf tb = v_add(te, t_base);
+    const vf sigma = v_set1((float)o->sigma_min);
+    const vf factor = v_set1((float)o->step_factor);
+    const vf max_step = v_set1((float)o->max_step);
+    vf s = v_set1(0.0f), prev = v_set1(0.0f);
+    vf hit_prev = prev, iter_sum = v_set1(0.0f);
+    vm active = m_from_bits(lanes);
+    res->hit = m_false();
+    res->s = s;
+    res->iters = v_set1(0.0f);
+    res->dist = v_set1(0.0f);
+    for (int step = 0; step < o->max_steps && m_bits(active); step++) {
+        if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
+            return;
+        vf dist, iters;
+        UB_FN(de)(dp, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
+                  v_fma(s, qd[3], q0[3]), &dist, &iters);
+        vf dw = v_mul(dist, sigma);
+        vf eps = UB_FN(threshold)(dp, v_add(tb, s));
+        *steps = v_count(*steps, active);
+        iter_sum = v_add(iter_sum, v_select(active, iters, v_set1(0.0f)));
+        vm is_hit = m_and(active, v_lt(dw, eps));
+        if (penumbra) {
+            /* NaN (0/0 for a point source at the origin) leaves the minimum unchanged. */
+            vf ratio = v_div(v_sub(dw, eps), v_mul(tan_angle, v_add(te, s)));
+            *penumbra = v_select(active, v_min(ratio, *penumbra), *penumbra);
+        }
+        res->hit = m_or(res->hit, is_hit);
+        res->s = v_select(is_hit, s, res->s);
+        res->iters = v_select(is_hit, iters, res->iters);
+        res->dist = v_select(is_hit, dw, res->dist);
+        hit_prev = v_select(is_hit, prev, hit_prev);
+        active = m_andnot(is_hit, active);
+        vf step_len = v_min(v_mul(dw, factor), max_step);
+        prev = v_select(active, s, prev);
+        s = v_select(active, v_add(s, step_len), s);
+        active = m_and(active, v_le(s, s_max));
+    }
+    /* Optional refinement: bisect between the last sample outside the threshold and the hit. */
+    vm refine = penumbra ? m_false() : res->hit;
+    vf lo = hit_prev, hi = res->s;
+    for (int k = 0; k < o->bisection_steps && m_bits(refine); k++) {
+        vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
+        vf dist, iters;
+        UB_FN(de)(dp, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
+                  v_fma(mid, qd[3], q0[3]), &dist, &iters);
+        vf dw = v_mul(dist, sigma);
+        vm inside = m_and(refine, v_lt(dw, UB_FN(threshold)(dp, v_add(tb, mid))));
+        vm outside = m_andnot(inside, refine);
+        iter_sum = v_add(iter_sum, v_select(refine, iters, v_set1(0.0f)));
+        hi = v_select(inside, mid, hi);
+        lo = v_select(outside, mid, lo);
+        res->iters = v_select(inside, iters, res->iters);
+        res->dist = v_select(inside, dw, res->dist);
+    }
+    res->s = hi;
+    float it[UB_LANES];
+    v_store(it, iter_sum);
+    for (int l = 0; l < UB_LANES; l++)
+        cnt->iterations += (uint64_t)it[l];
+}
+
+/* What a packet of rays hit. */
+typedef struct {
+    float t[UB_LANES], iters[UB_LANES], dist[UB_LANES], steps[UB_LANES];
+    float penumbra[UB_LANES]; /* shadow rays: visibility estimate of an unblocked ray, in [0, 1] */
+    int object[UB_LANES];     /* index, UB_HIT_NONE or UB_HIT_SEA */
+} UB_FN(ub_trace_result);
+
+/* Distance along each ray to the sea plane z = height (world), or +inf. */
+static inline double UB_FN(sea_t)(const ub_shading *sh, const double o[3], const double d[3])
+{
+    if (!sh->sea || d[2] == 0.0)
+        return HUGE_VAL;
+    double t = (sh->sea_height - o[2]) / d[2];
+    return t > 0.0 ? t : HUGE_VAL;
+}
+
+/* Trace a packet through the union of the scene's fractal objects (and the sea, when `sea`):
+ * the nearest hit wins, and each object's march stops at the nearest hit found so far. Shadow
+ * rays pass `tan_angle` (NULL: hard) and stop at any hit. */
+static void UB_FN(trace)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, const UB_FN(ub_packet_rays) *pr,
+                         int lanes, int sea, int any_hit, const float *tan_angle, UB_FN(ub_trace_result) *out,
+                         ub_counters *cnt)
+{
+    float best_t[UB_LANES];
+    for (int l = 0; l < UB_LANES; l++) {
+        out->object[l] = UB_HIT_NONE;
+        out->iters[l] = out->dist[l] = 0.0f;
+        out->penumbra[l] = 1.0f;
+        best_t[l] = (float)pr->t_max[l];
+        if (sea && ((lanes >> l) & 1)) {
+            double o[3] = {pr->origin[0][l], pr->origin[1][l], pr->origin[2][l]};
+            double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+            double ts = UB_FN(sea_t)(sc->shading, o, d);
+            if (ts >= pr->t_min[l] && ts <= pr->t_max[l]) {
+                best_t[l] = (float)ts;
+                out->object[l] = UB_HIT_SEA;
+            }
+        }
+    }
+    vf steps = v_set1(0.0f);
+    vf pen = v_set1(1.0f);
+    vf tanv = tan_angle ? v_load(tan_angle) : v_set1(0.0f);
+    vf tb = v_load(pr->t_base);
+    int open = lanes;
+    for (int k = 0; k < sc->object_count && open; k++) {
+        const ub_object *o = &sc->objects[k];
+        UB_FN(ub_object_rays) orays;
+        int active = UB_FN(object_rays)(o, pr, best_t, open, &orays);
+        if (!active)
+            continue;
+        UB_FN(ub_march_result) res;
+        UB_FN(march)(sc, o, &dps[k], &orays, tb, active, &res, &steps, tan_angle ? &pen : NULL, tanv, cnt);
+        int hits = m_bits(res.hit) & active;
+        if (!hits)
+            continue;
+        float s[UB_LANES], it[UB_LANES], di[UB_LANES];
+        v_store(s, res.s);
+        v_store(it, res.iters);
+        v_store(di, res.dist);
+        for (int l = 0; l < UB_LANES; l++) {
+            if (!((hits >> l) & 1))
+                continue;
+            float t = orays.t_enter[l] + s[l];
+            if (!(t < best_t[l] || out->object[l] == UB_HIT_NONE))
+                continue;
+            best_t[l] = t;
+            out->object[l] = k;
+            out->iters[l] = it[l];
+            out->dist[l] = di[l];
+            if (any_hit)
+                open &= ~(1 << l);
+        }
+    }
+    v_store(out->steps, steps);
+    float pb[UB_LANES];
+    v_store(pb, pen);
+    for (int l = 0; l < UB_LANES; l++) {
+        out->t[l] = best_t[l];
+        float p = pb[l] < 0.0f ? 0.0f : (pb[l] > 1.0f ? 1.0f : pb[l]);
+        out->penumbra[l] = out->object[l] == UB_HIT_NONE ? p : 0.0f;
+    }
+}

@@ -1,0 +1,149 @@
+/* Shading of section 4: normals, Lambertian lights with the paper's axle light, shadows,
+ * ambient occlusion from the distance estimate, and the sea of Fig. 5. Included by kernel.h. */
+
+/* World-space distance estimate of the union of the scene's objects at world points. */
+static vf UB_FN(scene_distance)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, const double p[3][UB_LANES])
+{
+    vf best = v_set1(HUGE_VALF);
+    for (int k = 0; k < sc->object_count; k++) {
+        const ub_object *o = &sc->objects[k];
+        if (o->bound_radius < 0.0)
+            continue;
+        float q[4][UB_LANES];
+        for (int l = 0; l < UB_LANES; l++) {
+            double wp[3] = {p[0][l], p[1][l], p[2][l]}, op[3];
+            float ql[4];
+            UB_FN(world_to_object_point)(o, wp, op);
+            UB_FN(to_quaternion)(o, op, ql);
+            for (int c = 0; c < 4; c++)
+                q[c][l] = ql[c];
+        }
+        vf d, it;
+        UB_FN(de)(&dps[k], v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &d, &it);
+        best = v_min(v_mul(d, v_set1((float)o->sigma_min)), best);
+    }
+    return best;
+}
+
+/* Ambient occlusion from the distance estimate: samples at h_i = i D / N along the normal. In
+ * the open the estimate grows like the distance itself: near a quadratic Julia set's smooth
+ * boundary d() is about half the true distance (exactly (1+h) log(1+h) / 2 >= h/2 off the unit
+ * ball), so 2 d(p + h n) >= h there and the occlusion term max(0, 1 - 2 d / h) vanishes. In a
+ * crease the estimate stays small and the term grows; nearer samples weigh more (2^-i). */
+static void UB_FN(ambient_occlusion)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, int lanes,
+                                     const double p[3][UB_LANES], const float n[3][UB_LANES], float ao[UB_LANES])
+{
+    const ub_shading *sh = sc->shading;
+    float occ[UB_LANES] = {0}, wsum = 0.0f;
+    for (int i = 1; i <= sh->ao_samples; i++) {
+        double h = sh->ao_distance * i / sh->ao_samples;
+        double pts[3][UB_LANES];
+        for (int l = 0; l < UB_LANES; l++)
+            for (int c = 0; c < 3; c++)
+                pts[c][l] = p[c][l] + h * n[c][l];
+        float d[UB_LANES];
+        v_store(d, UB_FN(scene_distance)(sc, dps, pts));
+        float w = ldexpf(1.0f, -i);
+        wsum += w;
+        for (int l = 0; l < UB_LANES; l++) {
+            float term = 1.0f - 2.0f * d[l] / (float)h;
+            occ[l] += w * (term > 0.0f ? term : 0.0f);
+        }
+    }
+    for (int l = 0; l < UB_LANES; l++) {
+        float a = 1.0f - sh->ao_strength * occ[l] / wsum;
+        ao[l] = ((lanes >> l) & 1) ? (a < 0.0f ? 0.0f : (a > 1.0f ? 1.0f : a)) : 1.0f;
+    }
+}
+
+/* The sea of Fig. 5: "waves are periodic functions of the distance estimate". The plane stays
+ * flat; the wave height w = A sin(2 pi D / lambda), D the scene's distance estimate on the
+ * plane, bends its normal: n = normalize(-dw/dx, -dw/dy, 1), by central differences. */
+static void UB_FN(sea_normal)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, const double p[3][UB_LANES],
+                              float n[3][UB_LANES])
+{
+    const ub_shading *sh = sc->shading;
+    double e = sh->sea_wavelength / 64.0;
+    float w[4][UB_LANES];
+    for (int s = 0; s < 4; s++) {
+        double pts[3][UB_LANES];
+        for (int l = 0; l < UB_LANES; l++) {
+            pts[0][l] = p[0][l] + (s == 0 ? e : (s == 1 ? -e : 0.0));
+            pts[1][l] = p[1][l] + (s == 2 ? e : (s == 3 ? -e : 0.0));
+            pts[2][l] = sh->sea_height;
+        }
+        v_store(w[s], UB_FN(scene_distance)(sc, dps, pts));
+    }
+    for (int l = 0; l < UB_LANES; l++) {
+        double k = 2.0 * M_PI / sh->sea_wavelength, a = sh->sea_amplitude;
+        double dx = a * (sin(k * w[0][l]) - sin(k * w[1][l])) / (2.0 * e);
+        double dy = a * (sin(k * w[2][l]) - sin(k * w[3][l])) / (2.0 * e);
+        if (!isfinite(dx) || !isfinite(dy))
+            dx = dy = 0.0; /* no object: a calm sea */
+        double len = sqrt(dx * dx + dy * dy + 1.0);
+        n[0][l] = (float)(-dx / len);
+        n[1][l] = (float)(-dy / len);
+        n[2][l] = (float)(1.0 / len);
+    }
+}
+
+/* Direction to a light from p, its distance, the irradiance scale it sends (before the
+ * surface's cosine) and the tangent of its apparent angular radius. Returns 0 if it sends
+ * nothing to p. */
+static int UB_FN(light_sample)(const ub_light *L, const double p[3], double l[3], double *dist, double E[3],
+                               double *tan_angle)
+{
+    if (L->type == UB_LIGHT_SUN) {
+        for (int i = 0; i < 3; i++)
+            l[i] = -L->direction[i];
+        *dist = HUGE_VAL;
+        for (int i = 0; i < 3; i++)
+            E[i] = L->color[i];
+        *tan_angle = L->radius;
+        return 1;
+    }
+    double v[3] = {L->position[0] - p[0], L->position[1] - p[1], L->position[2] - p[2]};
+    double r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if (!(r2 > 0.0))
+        return 0;
+    double r = sqrt(r2), fall = 1.0 / r2;
+    for (int i = 0; i < 3; i++)
+        l[i] = v[i] / r;
+    double cos_emit = -(l[0] * L->direction[0] + l[1] * L->direction[1] + l[2] * L->direction[2]);
+    if (L->type == UB_LIGHT_SPOT) {
+        double x = (cos_emit - L->spot_cos_outer) / fmax(L->spot_cos_inner - L->spot_cos_outer, 1e-12);
+        if (L->spot_cos_inner <= L->spot_cos_outer) /* no blend: a sharp cone */
+            x = cos_emit >= L->spot_cos_outer ? 1.0 : 0.0;
+        x = x < 0.0 ? 0.0 : (x > 1.0 ? 1.0 : x);
+        fall *= x * x * (3.0 - 2.0 * x);
+    } else if (L->type == UB_LIGHT_AREA) {
+        fall *= cos_emit > 0.0 ? cos_emit : 0.0; /* one-sided, cosine-weighted emitter */
+    }
+    if (!(fall > 0.0))
+        return 0;
+    *dist = r;
+    for (int i = 0; i < 3; i++)
+        E[i] = L->color[i] * fall;
+    *tan_angle = L->radius / r;
+    return 1;
+}
+
+/* Colour of a fractal hit: the base colour, or the ramp at the orbit trap or iteration count. */
+static void UB_FN(albedo)(const ub_object *o, float trap, float iterations, float out[3])
+{
+    if (o->color_mode == UB_COLOR_BASE || o->ramp_size < 2) {
+        for (int c = 0; c < 3; c++)
+            out[c] = o->color[c];
+        return;
+    }
+    float v = o->color_mode == UB_COLOR_ORBIT_TRAP ? trap : iterations / (float)o->max_iterations;
+    float x = v * o->ramp_scale + o->ramp_offset;
+    x = x < 0.0f ? 0.0f : (x > 1.0f ? 1.0f : x);
+    float f = x * (float)(o->ramp_size - 1);
+    int i = (int)f;
+    if (i >= o->ramp_size - 1)
+        i = o->ramp_size - 2;
+    float w = f - (float)i;
+    for (int c = 0; c < 3; c++)
+        out[c] = o->ramp[i][c] * (1.0f - w) + o->ramp[i + 1][c] * w;
+}
