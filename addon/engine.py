@@ -1,10 +1,12 @@
 """Final renders: Blender's depsgraph -> the native core -> render passes.
 
 The RenderEngine class (in __init__.py) only forwards its callbacks here."""
+import math
 import time
 
 import bpy
 import numpy as np
+from mathutils import Vector
 
 from . import passes, properties, utils
 
@@ -93,6 +95,68 @@ def background(scene):
     return (color[0] * strength, color[1] * strength, color[2] * strength, 1.0)
 
 
+def light_description(light, matrix):
+    """A Blender light as the native core's light dict, in Cycles' units (measured against Cycles:
+    a Lambertian surface returns albedo / pi times the irradiance E):
+      sun:   E = strength (W/m^2) along -Z, angle = angular diameter;
+      point: intensity P / (4 pi): E = P cos / (4 pi r^2), radius = shadow_soft_size;
+      spot:  a point light times smoothstep((cos a - cos(size/2)) / ((1 - cos(size/2)) blend));
+      area:  radiance P / (pi A), far field E = P cos_light cos / (pi r^2), one-sided along -Z.
+    Blender 4.5's exposure (2^exposure) multiplies the power where the property exists."""
+    power = light.energy * 2.0 ** getattr(light, "exposure", 0.0)
+    color = [c * power for c in light.color]
+    axis = matrix.to_3x3() @ Vector((0.0, 0.0, -1.0))
+    if axis.length == 0.0:
+        raise RenderError("The light '%s' has a zero scale" % light.name)
+    axis.normalize()
+    out = dict(position=tuple(matrix.translation), direction=tuple(axis), cast_shadow=bool(light.use_shadow))
+    if light.type == 'SUN':
+        out.update(type="sun", color=color, radius=math.tan(0.5 * min(light.angle, math.pi * 0.999)))
+    elif light.type in {'POINT', 'SPOT'}:
+        out.update(type=light.type.lower(), color=[c / (4.0 * math.pi) for c in color],
+                   radius=light.shadow_soft_size)
+        if light.type == 'SPOT':
+            out.update(spot_size=light.spot_size, spot_blend=light.spot_blend)
+    elif light.type == 'AREA':
+        size_y = light.size_y if light.shape in {'RECTANGLE', 'ELLIPSE'} else light.size
+        out.update(type="area", color=[c / math.pi for c in color], radius=0.5 * max(light.size, size_y))
+    else:
+        return None
+    return out
+
+
+def shading_description(depsgraph):
+    """The native core's scene-wide shading dict: Scene.unbound's settings and the scene's lights."""
+    scene = depsgraph.scene
+    s = scene.unbound
+    lights = []
+    if s.use_scene_lights:
+        found = []
+        for inst in depsgraph.object_instances:
+            ob = inst.object
+            if ob.type != 'LIGHT':
+                continue
+            desc = light_description(ob.data, inst.matrix_world)
+            if desc is not None:
+                found.append(((ob.name, inst.is_instance, inst.random_id), desc))
+        found.sort(key=lambda item: item[0])
+        lights = [d for _, d in found]
+    if len(lights) > 64:
+        raise RenderError("The scene has %d lights; Unbound renders at most 64" % len(lights))
+    fog_color = tuple(s.fog_color)
+    if s.fog_use_world:
+        bg = background(scene) if not scene.render.film_transparent else None
+        fog_color = bg[:3] if bg else tuple(scene.world.color) if scene.world else (0.0, 0.0, 0.0)
+    sea = None
+    if s.use_sea:
+        sea = dict(height=s.sea_height, wavelength=s.sea_wavelength, amplitude=s.sea_amplitude,
+                   color=tuple(s.sea_color), reflectivity=s.sea_reflectivity)
+    return dict(samples=s.samples, axle_light=s.axle_light, ambient=tuple(s.ambient), shadows=s.shadows.lower(),
+                ao_strength=s.ao_strength, ao_distance=s.ao_distance, ao_samples=s.ao_samples,
+                reflection_depth=s.reflection_depth, fog_density=s.fog_density, fog_color=fog_color,
+                glow_strength=s.glow_strength, glow_color=tuple(s.glow_color), sea=sea, lights=lights)
+
+
 def thread_count(scene):
     """Blender's Performance > Threads setting, as Cycles honours it (0: every core)."""
     r = scene.render
@@ -121,6 +185,7 @@ def _render(engine, depsgraph):
     width, height, window = image_window(scene)
     camera = camera_description(engine, depsgraph, width, height)
     objects = fractal_objects(depsgraph)
+    shading = shading_description(depsgraph)
     wanted = passes.enabled(view_layer)
     w, h = window[2], window[3]
     buffers = {p.native: np.empty((h, w, p.channels), np.float32) for p in wanted}
@@ -135,7 +200,8 @@ def _render(engine, depsgraph):
     started = time.perf_counter()
     stats = core.render(camera, objects, buffers, window=window, threads=thread_count(scene),
                         tile_size=scene.unbound.tile_size, simd=scene.unbound.simd.lower(),
-                        background=background(scene), progress=progress, poll_interval=0.02)
+                        background=background(scene), shading=shading, progress=progress,
+                        poll_interval=0.02)
     LAST_STATS.clear()
     LAST_STATS.update(stats)
     # The result covers the window: Blender places it in the full frame (or crops to it).

@@ -1,8 +1,77 @@
-"""Operators: add a fractal object; build a compositor node tree from Unbound's passes."""
+"""Operators: add a fractal object, its colour ramp and presets; build a compositor node tree from
+Unbound's passes."""
+import os
+
 import bpy
+from bl_operators.presets import AddPresetBase
 
 from . import passes, utils
 from .properties import bounding_radius
+
+# Presets shipped with the extension; the user's own (Add Preset) go where Blender keeps presets,
+# scripts/presets/unbound/fractal, and the menu lists both.
+PRESET_SUBDIR = "unbound/fractal"
+BUNDLED_PRESETS = os.path.join(os.path.dirname(__file__), "presets", "fractal")
+
+
+class UNBOUND_MT_fractal_presets(bpy.types.Menu):
+    bl_label = "Fractal Presets"
+    preset_subdir = PRESET_SUBDIR
+    preset_operator = "script.execute_preset"
+    preset_add_operator = "unbound.fractal_preset_add"
+
+    def draw(self, context):
+        # Menu.draw_preset with the bundled folder searched too.
+        self.path_menu([BUNDLED_PRESETS] + bpy.utils.preset_paths(self.preset_subdir), self.preset_operator,
+                       filter_ext=lambda ext: ext.lower() == ".py", add_operator=self.preset_add_operator,
+                       display_name=lambda name: bpy.path.display_name(name, title_case=False))
+
+
+class UNBOUND_OT_fractal_preset_add(AddPresetBase, bpy.types.Operator):
+    """Save the active fractal's parameters and the scene's Unbound shading as a preset, or remove one"""
+    bl_idname = "unbound.fractal_preset_add"
+    bl_label = "Add Fractal Preset"
+    preset_menu = "UNBOUND_MT_fractal_presets"
+    preset_subdir = PRESET_SUBDIR
+    preset_defines = ["ob = bpy.context.object", "scene = bpy.context.scene"]
+    preset_values = ["ob.unbound." + name for name in (
+        "kind", "mu", "theta", "slice_offset", "slice_rotation", "max_iterations", "bailout", "threshold_mode",
+        "detail", "epsilon", "step_factor", "max_step", "max_steps", "bisection_steps", "color", "normal_method",
+        "normal_alpha", "normal_delta", "reflectivity", "color_mode", "ramp_scale", "ramp_offset")] + [
+        "scene.unbound." + name for name in (
+            "samples", "axle_light", "use_scene_lights", "ambient", "shadows", "ao_strength", "ao_distance",
+            "ao_samples", "reflection_depth", "fog_density", "fog_use_world", "fog_color", "glow_strength",
+            "glow_color", "use_sea", "sea_height", "sea_wavelength", "sea_amplitude", "sea_color",
+            "sea_reflectivity")]
+
+    @classmethod
+    def poll(cls, context):
+        return utils.is_fractal(context.object)
+
+
+class UNBOUND_OT_color_ramp_add(bpy.types.Operator):
+    """Give the active fractal a colour ramp (a texture's ramp) for orbit-trap or iteration colouring"""
+    bl_idname = "object.unbound_color_ramp_add"
+    bl_label = "New Color Ramp"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return utils.is_fractal(context.object)
+
+    def execute(self, context):
+        props = context.object.unbound
+        tex = bpy.data.textures.new("%s Ramp" % context.object.name, 'BLEND')
+        tex.use_color_ramp = True
+        ramp = tex.color_ramp
+        ramp.elements[0].color = (0.05, 0.1, 0.4, 1.0)
+        ramp.elements[1].color = (1.0, 0.85, 0.4, 1.0)
+        mid = ramp.elements.new(0.5)
+        mid.color = (0.8, 0.2, 0.1, 1.0)
+        props.color_ramp_texture = tex
+        if props.color_mode == 'BASE':
+            props.color_mode = 'ORBIT_TRAP'
+        return {'FINISHED'}
 
 
 class UNBOUND_OT_fractal_add(bpy.types.Operator):
@@ -19,6 +88,9 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
                                        default=True, options={'SKIP_SAVE'})
 
     def execute(self, context):
+        if not all(abs(c) <= 1000.0 for c in self.mu):
+            self.report({'ERROR'}, "Mu components must lie within [-1000, 1000]")
+            return {'CANCELLED'}
         ob = bpy.data.objects.new("Quaternion Julia", None)
         ob.empty_display_type = 'SPHERE'
         ob.unbound.is_fractal = True
@@ -114,7 +186,8 @@ def menu_add(self, context):
     self.layout.operator(UNBOUND_OT_fractal_add.bl_idname, text="Unbound Fractal", icon='MESH_UVSPHERE')
 
 
-classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_setup_compositing)
+classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_setup_compositing, UNBOUND_MT_fractal_presets,
+           UNBOUND_OT_fractal_preset_add, UNBOUND_OT_color_ramp_add)
 
 
 def register():

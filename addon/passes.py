@@ -19,7 +19,20 @@ PASSES = (
                "Ray-marching steps of the pixel's ray, background included"),
     RenderPass("Distance", 1, "X", 'VALUE', "distance", "use_pass_distance",
                "Distance estimate at the hit, in world units"),
+    RenderPass("AO", 1, "X", 'VALUE', "ao", "use_pass_ao", "Ambient occlusion: 1 in the open"),
+    RenderPass("Shadow", 1, "X", 'VALUE', "shadow", "use_pass_shadow",
+               "Fraction of the scene lights' direct light that is not shadowed"),
+    RenderPass("Diffuse", 3, "RGB", 'COLOR', "diffuse", "use_pass_diffuse",
+               "Direct light (scene lights and axle light) times the surface colour"),
+    RenderPass("Ambient", 3, "RGB", 'COLOR', "ambient", "use_pass_ambient",
+               "Ambient light times the surface colour and ambient occlusion"),
+    RenderPass("Reflection", 3, "RGB", 'COLOR', "reflection", "use_pass_reflection", "Reflected light"),
+    RenderPass("Orbit Trap", 1, "X", 'VALUE', "orbit_trap", "use_pass_orbit_trap",
+               "Closest approach of the orbit to the origin, min |z_k|"),
+    RenderPass("Glow", 3, "RGB", 'COLOR', "glow", "use_pass_glow", "Glow from the marching steps"),
 )
+
+# Combined = fog(Diffuse + Ambient + Reflection) + Glow, with fog the first segment's depth cue.
 
 
 def enabled(view_layer):

@@ -16,6 +16,27 @@ THRESHOLD_MODES = [
     ('PIXEL', "Pixel", "Hit threshold follows the pixel footprint at each depth (detail adapts to resolution)", 0),
     ('FIXED', "Fixed", "Hit threshold is a fixed distance in object units, as in the paper", 1),
 ]
+NORMAL_METHODS = [
+    ('GRADIENT_DISTANCE', "Gradient of Distance", "Central differences of the distance estimate d() "
+     "(eq. 15), step alpha * t^delta", 0),
+    ('GRADIENT_POTENTIAL', "Gradient of Potential", "Central differences of the potential G() (eq. 15), "
+     "step alpha * t^delta", 1),
+    ('ZBUFFER', "Z-Buffer Neighbours", "Plane through the hits of neighbouring pixels (eq. 12-14); "
+     "reflections use the distance gradient", 2),
+    ('ANALYTIC', "Analytic", "Gradient of |f^n| through the iteration's Jacobian: one evaluation, "
+     "sharpest detail", 3),
+]
+COLOR_MODES = [
+    ('BASE', "Base Color", "One colour for the whole surface", 0),
+    ('ORBIT_TRAP', "Orbit Trap", "Colour ramp over the orbit's closest approach to the origin, min |z_k|", 1),
+    ('ITERATIONS', "Iterations", "Colour ramp over the escape count divided by the iteration limit", 2),
+]
+SHADOW_MODES = [
+    ('NONE', "None", "Lights are never blocked", 0),
+    ('HARD', "Hard", "A ray marched toward each light: lit or not", 1),
+    ('SOFT', "Soft", "Penumbra from each light's size (radius, sun angle, area size), estimated from how "
+     "nearly the shadow ray missed", 2),
+]
 SIMD_MODES = [
     ('AUTO', "Automatic", "AVX2 and FMA where the CPU has them, portable code otherwise", 0),
     ('AVX2', "AVX2", "Force the AVX2 and FMA kernel", 1),
@@ -109,11 +130,78 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
                                  default=10, min=0, max=64)
     color: FloatVectorProperty(name="Color", description="Surface colour", subtype='COLOR', size=3,
                                default=(0.8, 0.8, 0.8), min=0.0, soft_max=1.0)
+    # Shading (section 4 of the paper)
+    normal_method: EnumProperty(name="Normals", description="How surface normals are approximated "
+                                "(section 4.1)", items=NORMAL_METHODS, default='GRADIENT_DISTANCE')
+    normal_alpha: FloatProperty(name="Alpha", description="Gradient step scale: step = alpha * t^delta, t the "
+                                "distance from the eye. Too small is noisy, too large washes out detail",
+                                default=1e-3, min=1e-9, max=1000.0, soft_min=1e-5, soft_max=0.1, precision=5,
+                                step=0.01)
+    normal_delta: FloatProperty(name="Delta", description="Depth exponent of the gradient step (Table 1): "
+                                "0 constant (inverse clarity), 1 linear (even clarity), 2 quadratic "
+                                "(exaggerated depth)", default=1.0, min=0.0, max=4.0, soft_max=2.0)
+    reflectivity: FloatProperty(name="Reflectivity", description="Fraction of light mirrored by the surface "
+                                "(needs Reflection Bounces)", default=0.0, min=0.0, max=1.0, subtype='FACTOR')
+    color_mode: EnumProperty(name="Coloring", description="How the surface colour is chosen",
+                             items=COLOR_MODES, default='BASE')
+    color_ramp_texture: PointerProperty(name="Color Ramp", description="Texture whose colour ramp colours the "
+                                        "surface by orbit trap or iterations", type=bpy.types.Texture)
+    ramp_scale: FloatProperty(name="Ramp Scale", description="Ramp position = value * scale + offset",
+                              default=1.0, min=-1e6, max=1e6, soft_min=-10.0, soft_max=10.0)
+    ramp_offset: FloatProperty(name="Ramp Offset", description="Ramp position = value * scale + offset",
+                               default=0.0, min=-1e6, max=1e6, soft_min=-1.0, soft_max=1.0)
 
 
 class UnboundSceneSettings(bpy.types.PropertyGroup):
     tile_size: IntProperty(name="Tile Size", description="Side of the square tiles handed to render threads",
                            default=32, min=4, max=1024)
+    samples: IntProperty(name="Samples", description="Anti-aliasing samples per pixel (stratified, the same "
+                         "on every machine)", default=1, min=1, max=4096, soft_max=64)
+    # Lighting
+    axle_light: FloatProperty(name="Axle Light", description="A light at the eye, as in the paper: every "
+                              "visible point receives light. 1 lights a white surface facing the eye to 1",
+                              default=1.0, min=0.0, max=1e6, soft_max=2.0)
+    use_scene_lights: BoolProperty(name="Scene Lights", description="Light the fractals with the scene's "
+                                   "sun, point, spot and area lights", default=True)
+    ambient: FloatVectorProperty(name="Ambient", description="Ambient light, scaled by ambient occlusion",
+                                 subtype='COLOR', size=3, default=(0.0, 0.0, 0.0), min=0.0, max=1e6, soft_max=1.0)
+    shadows: EnumProperty(name="Shadows", description="Shadows of the scene's lights", items=SHADOW_MODES,
+                          default='HARD')
+    # Effects
+    ao_strength: FloatProperty(name="Ambient Occlusion", description="Strength of the occlusion estimated from "
+                               "the distance estimate (0: off)", default=0.0, min=0.0, max=1.0, subtype='FACTOR')
+    ao_distance: FloatProperty(name="AO Distance", description="Distance of the farthest occlusion sample",
+                               default=0.5, min=1e-6, max=1e6, soft_max=10.0, subtype='DISTANCE')
+    ao_samples: IntProperty(name="AO Samples", description="Occlusion samples along the normal", default=5,
+                            min=1, max=32)
+    reflection_depth: IntProperty(name="Reflection Bounces", description="Mirror bounces of reflective "
+                                  "surfaces (0: off)", default=0, min=0, max=16)
+    fog_density: FloatProperty(name="Fog Density", description="Depth cue: colour fades toward the fog colour "
+                               "as 1 - exp(-density * distance) (0: off)", default=0.0, min=0.0, max=1e6,
+                               soft_max=1.0, precision=4)
+    fog_use_world: BoolProperty(name="World Color Fog", description="Fade toward the world's colour",
+                                default=True)
+    fog_color: FloatVectorProperty(name="Fog Color", description="Colour distant surfaces fade toward",
+                                   subtype='COLOR', size=3, default=(0.5, 0.5, 0.5), min=0.0, max=1e6,
+                                   soft_max=1.0)
+    glow_strength: FloatProperty(name="Glow", description="Glow from the marching steps: rays that pass close "
+                                 "to the set take many steps (0: off)", default=0.0, min=0.0, max=1e6,
+                                 soft_max=2.0)
+    glow_color: FloatVectorProperty(name="Glow Color", description="Colour of the glow", subtype='COLOR', size=3,
+                                    default=(0.4, 0.6, 1.0), min=0.0, max=1e6, soft_max=1.0)
+    # The sea of Fig. 5
+    use_sea: BoolProperty(name="Sea", description="A reflective ground plane whose waves are a periodic "
+                          "function of the distance to the fractals (the paper's Fig. 5)", default=False)
+    sea_height: FloatProperty(name="Height", description="Height of the sea plane (world Z)", default=-1.0,
+                              min=-1e9, max=1e9, soft_min=-10.0, soft_max=10.0, subtype='DISTANCE')
+    sea_wavelength: FloatProperty(name="Wavelength", description="Distance between wave crests",
+                                  default=0.25, min=1e-6, max=1e9, soft_max=10.0, subtype='DISTANCE')
+    sea_amplitude: FloatProperty(name="Amplitude", description="Height of the waves", default=0.01, min=0.0,
+                                 max=1e9, soft_max=1.0, subtype='DISTANCE', precision=4)
+    sea_color: FloatVectorProperty(name="Color", description="Colour of the sea", subtype='COLOR', size=3,
+                                   default=(0.1, 0.25, 0.4), min=0.0, max=1e6, soft_max=1.0)
+    sea_reflectivity: FloatProperty(name="Reflectivity", description="Fraction of light the sea mirrors "
+                                    "(needs Reflection Bounces)", default=0.5, min=0.0, max=1.0, subtype='FACTOR')
     simd: EnumProperty(name="SIMD", description="Vector instruction set of the marching kernel",
                        items=SIMD_MODES, default='AUTO')
 
@@ -127,7 +215,23 @@ def native_parameters(props, matrix):
         slice_origin=origin, matrix=[list(row) for row in matrix], max_iterations=props.max_iterations,
         bailout=props.bailout, epsilon_mode=props.threshold_mode.lower(), epsilon=props.epsilon,
         detail=props.detail, step_factor=props.step_factor, max_step=props.max_step, max_steps=props.max_steps,
-        bisection_steps=props.bisection_steps, color=tuple(props.color))
+        bisection_steps=props.bisection_steps, color=tuple(props.color),
+        normal_method=props.normal_method.lower(), normal_alpha=props.normal_alpha,
+        normal_delta=props.normal_delta, reflectivity=props.reflectivity, color_mode=props.color_mode.lower(),
+        color_ramp=ramp_table(props.color_ramp_texture) if props.color_mode != 'BASE' else None,
+        ramp_scale=props.ramp_scale, ramp_offset=props.ramp_offset)
+
+
+RAMP_SIZE = 64
+
+
+def ramp_table(texture):
+    """Colours of a texture's colour ramp sampled uniformly (Blender evaluates its own ramp:
+    interpolation, colour mode and keyframed stops included); None without a ramp."""
+    if texture is None or not texture.use_color_ramp:
+        return None
+    ramp = texture.color_ramp
+    return [tuple(ramp.evaluate(i / (RAMP_SIZE - 1)))[:3] for i in range(RAMP_SIZE)]
 
 
 def _pass_toggle(p):

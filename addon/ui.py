@@ -31,6 +31,10 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = True
         props = context.object.unbound
+        row = layout.row(align=True)
+        row.menu("UNBOUND_MT_fractal_presets", text=bpy.types.UNBOUND_MT_fractal_presets.bl_label)
+        row.operator("unbound.fractal_preset_add", text="", icon='ADD')
+        row.operator("unbound.fractal_preset_add", text="", icon='REMOVE').remove_active = True
         layout.prop(props, "kind")
         # Label the quaternion's components as Blender labels Location X, Y, Z: without a subtype a
         # 4-vector shows one "Mu" label over four unlabelled fields.
@@ -75,6 +79,36 @@ class UNBOUND_PT_fractal_quality(FractalPanel, bpy.types.Panel):
         col.prop(props, "bisection_steps")
 
 
+class UNBOUND_PT_fractal_shading(FractalPanel, bpy.types.Panel):
+    bl_label = "Shading"
+    bl_parent_id = "UNBOUND_PT_fractal"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        props = context.object.unbound
+        col = layout.column()
+        col.prop(props, "normal_method")
+        sub = col.column()
+        sub.active = props.normal_method in {'GRADIENT_DISTANCE', 'GRADIENT_POTENTIAL'}
+        sub.prop(props, "normal_alpha")
+        sub.prop(props, "normal_delta")
+        layout.prop(props, "reflectivity")
+        col = layout.column()
+        col.prop(props, "color_mode")
+        if props.color_mode != 'BASE':
+            tex = props.color_ramp_texture
+            col.prop(props, "color_ramp_texture")
+            if tex is None:
+                col.operator("object.unbound_color_ramp_add", icon='ADD')
+            elif tex.use_color_ramp:
+                col.template_color_ramp(tex, "color_ramp", expand=True)
+            else:
+                col.prop(tex, "use_color_ramp", text="Use the Texture's Ramp")
+            col.prop(props, "ramp_scale")
+            col.prop(props, "ramp_offset")
+
+
 class UNBOUND_PT_render(UnboundPanel, bpy.types.Panel):
     bl_label = "Unbound"
     bl_context = "render"
@@ -84,10 +118,109 @@ class UNBOUND_PT_render(UnboundPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         settings = context.scene.unbound
+        layout.prop(settings, "samples")
         layout.prop(settings, "tile_size")
         layout.prop(settings, "simd")
         layout.prop(context.scene.render, "film_transparent")
         layout.operator("scene.unbound_setup_compositing", icon='NODETREE')
+
+
+class RenderSubPanel(UnboundPanel):
+    bl_context = "render"
+    bl_parent_id = "UNBOUND_PT_render"
+
+
+class UNBOUND_PT_render_lighting(RenderSubPanel, bpy.types.Panel):
+    bl_label = "Lighting"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        s = context.scene.unbound
+        layout.prop(s, "axle_light")
+        layout.prop(s, "use_scene_lights")
+        layout.prop(s, "shadows")
+        layout.prop(s, "ambient")
+
+
+class UNBOUND_PT_render_effects(RenderSubPanel, bpy.types.Panel):
+    bl_label = "Effects"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        s = context.scene.unbound
+        col = layout.column()
+        col.prop(s, "ao_strength")
+        sub = col.column()
+        sub.active = s.ao_strength > 0.0
+        sub.prop(s, "ao_distance")
+        sub.prop(s, "ao_samples")
+        layout.prop(s, "reflection_depth")
+        col = layout.column()
+        col.prop(s, "fog_density")
+        sub = col.column()
+        sub.active = s.fog_density > 0.0
+        sub.prop(s, "fog_use_world")
+        if not s.fog_use_world:
+            sub.prop(s, "fog_color")
+        col = layout.column()
+        col.prop(s, "glow_strength")
+        sub = col.column()
+        sub.active = s.glow_strength > 0.0
+        sub.prop(s, "glow_color")
+
+
+class UNBOUND_PT_render_sea(RenderSubPanel, bpy.types.Panel):
+    bl_label = "Sea"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.unbound, "use_sea", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        s = context.scene.unbound
+        layout.active = s.use_sea
+        layout.prop(s, "sea_height")
+        layout.prop(s, "sea_wavelength")
+        layout.prop(s, "sea_amplitude")
+        layout.prop(s, "sea_color")
+        layout.prop(s, "sea_reflectivity")
+
+
+class UNBOUND_PT_light(UnboundPanel, bpy.types.Panel):
+    """The light settings Unbound reads (Cycles' units), in place of Blender's engine-specific panels"""
+    bl_label = "Light"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.light is not None
+
+    def draw(self, context):
+        layout = self.layout
+        light = context.light
+        layout.row().prop(light, "type", expand=True)
+        layout.use_property_split = True
+        col = layout.column()
+        col.prop(light, "color")
+        col.prop(light, "energy")
+        col.prop(light, "use_shadow", text="Cast Shadow")
+        col.separator()
+        if light.type in {'POINT', 'SPOT'}:
+            col.prop(light, "shadow_soft_size", text="Radius")
+        elif light.type == 'SUN':
+            col.prop(light, "angle")
+        elif light.type == 'AREA':
+            col.prop(light, "shape")
+            sub = col.column(align=True)
+            if light.shape in {'SQUARE', 'DISK'}:
+                sub.prop(light, "size")
+            else:
+                sub.prop(light, "size", text="Size X")
+                sub.prop(light, "size_y", text="Y")
 
 
 class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
@@ -105,15 +238,16 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
                 col.prop(props, p.toggle)
 
 
-classes = (UNBOUND_PT_fractal, UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_render,
-           UNBOUND_PT_passes)
+classes = (UNBOUND_PT_fractal, UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
+           UNBOUND_PT_render, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects, UNBOUND_PT_render_sea,
+           UNBOUND_PT_light, UNBOUND_PT_passes)
 
 # Blender's own panels that make sense for Unbound (output format, camera, world, object
 # transform ...) list the engines they appear for; add ours as Cycles does, except panels
 # about features Unbound does not have.
 _EXCLUDE = {"RENDER_PT_eevee_performance", "RENDER_PT_color_management", "RENDER_PT_simplify",
             "RENDER_PT_freestyle", "VIEWLAYER_PT_layer_passes", "VIEWLAYER_PT_eevee_layer_passes_data",
-            "RENDER_PT_gpencil", "DATA_PT_light", "DATA_PT_EEVEE_light"}
+            "RENDER_PT_gpencil"}
 _added = []
 
 
