@@ -99,7 +99,8 @@ def light_description(light, matrix):
     """A Blender light as the native core's light dict, in Cycles' units (measured against Cycles:
     a Lambertian surface returns albedo / pi times the irradiance E):
       sun:   E = strength (W/m^2) along -Z, angle = angular diameter;
-      point: intensity P / (4 pi): E = P cos / (4 pi r^2), radius = shadow_soft_size;
+      point: intensity P / (4 pi): E = P cos / (4 pi r^2), radius = shadow_soft_size; with soft
+             falloff (the default since 4.1) E = P cos / (4 pi (r^2 + radius^2));
       spot:  a point light times smoothstep((cos a - cos(size/2)) / ((1 - cos(size/2)) blend));
       area:  radiance P / (pi A), far field E = P cos_light cos / (pi r^2), one-sided along -Z.
     Blender 4.5's exposure (2^exposure) multiplies the power where the property exists."""
@@ -114,7 +115,7 @@ def light_description(light, matrix):
         out.update(type="sun", color=color, radius=math.tan(0.5 * min(light.angle, math.pi * 0.999)))
     elif light.type in {'POINT', 'SPOT'}:
         out.update(type=light.type.lower(), color=[c / (4.0 * math.pi) for c in color],
-                   radius=light.shadow_soft_size)
+                   radius=light.shadow_soft_size, soft_falloff=bool(getattr(light, "use_soft_falloff", False)))
         if light.type == 'SPOT':
             out.update(spot_size=light.spot_size, spot_blend=light.spot_blend)
     elif light.type == 'AREA':

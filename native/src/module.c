@@ -393,7 +393,7 @@ static const char *const shading_keys[] = {
 };
 static const char *const sea_keys[] = {"height", "wavelength", "amplitude", "color", "reflectivity", NULL};
 static const char *const light_keys[] = {"type", "position", "direction", "color", "radius", "spot_size",
-                                         "spot_blend", "cast_shadow", NULL};
+                                         "spot_blend", "cast_shadow", "soft_falloff", NULL};
 static const char *const light_types[] = {"point", "sun", "spot", "area", NULL};
 static const char *const shadow_modes[] = {"none", "hard", "soft", NULL};
 
@@ -456,6 +456,8 @@ static int parse_light(PyObject *o, const char *name, ub_light *L)
     if (FIELD("spot_blend") && get_double(v, sub, 0.0, 1.0, 0, &spot_blend))
         return -1;
     if (FIELD("cast_shadow") && get_bool(v, sub, &L->cast_shadow))
+        return -1;
+    if (FIELD("soft_falloff") && get_bool(v, sub, &L->soft_falloff))
         return -1;
 #undef FIELD
     for (int i = 0; i < 3; i++)

@@ -111,6 +111,7 @@ typedef struct {
     double radius;        /* source radius (sun: tangent of the angular radius), soft shadows */
     double spot_cos_outer, spot_cos_inner; /* spot cone: smooth step between these cosines */
     int cast_shadow;
+    int soft_falloff;     /* point/spot: Blender's soft falloff, E = color / (r^2 + radius^2) */
 } ub_light;
 
 typedef enum { UB_SHADOWS_NONE = 0, UB_SHADOWS_HARD, UB_SHADOWS_SOFT } ub_shadow_mode;

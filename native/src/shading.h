@@ -106,7 +106,10 @@ static int UB_FN(light_sample)(const ub_light *L, const double p[3], double l[3]
     double r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
     if (!(r2 > 0.0))
         return 0;
-    double r = sqrt(r2), fall = 1.0 / r2;
+    /* Soft falloff (Blender's default for point and spot lights since 4.1): Cycles lights the point
+     * with a disk of the light's radius facing it, E = P cos / (4 pi (r^2 + radius^2)). */
+    double r = sqrt(r2);
+    double fall = 1.0 / (L->soft_falloff && L->type != UB_LIGHT_AREA ? r2 + L->radius * L->radius : r2);
     for (int i = 0; i < 3; i++)
         l[i] = v[i] / r;
     double cos_emit = -(l[0] * L->direction[0] + l[1] * L->direction[1] + l[2] * L->direction[2]);
