@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 WHEEL_GLOB := dist/unbound_core-*-cp311-abi3-*.whl
 NATIVE_SOURCES := $(wildcard native/src/*.c native/src/*.h native/unbound_core/*.py) native/setup.py native/pyproject.toml
 
-.PHONY: venv wheel extension test test-native bench demo clean
+.PHONY: venv wheel extension test test-native bench demo gallery clean
 
 venv: $(VENV)/.stamp
 $(VENV)/.stamp: requirements-dev.txt
@@ -45,6 +45,14 @@ bench: wheel
 demo: extension
 	mkdir -p build/blender-user/config
 	BLENDER_USER_RESOURCES=$(CURDIR)/build/blender-user $(PY) examples/animate_mu.py --out $(CURDIR)/out/animate_mu
+
+# Optional: one PNG per bundled fractal preset (docs/gallery/, shown in the README), rendered like
+# the demo but in a fresh user directory each time: Blender's installer keeps an installed wheel
+# of the same name and version, so a reused directory can hold an older native core.
+gallery: extension
+	rm -rf build/gallery-user
+	mkdir -p build/gallery-user/config
+	BLENDER_USER_RESOURCES=$(CURDIR)/build/gallery-user $(PY) examples/gallery.py --out $(CURDIR)/docs/gallery
 
 clean:
 	rm -rf dist native/build native/*.egg-info native/unbound_core/*.so

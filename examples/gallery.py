@@ -1,0 +1,250 @@
+"""Render a gallery of Unbound's bundled fractal presets: one PNG per preset, each in a scene of its
+own (a camera that frames the preset, a sun where it helps), through Blender's pipeline.
+
+The same script runs unchanged in Blender and with the bpy module:
+
+    blender --background --python examples/gallery.py -- [options]
+    python examples/gallery.py [options]           # bpy from PyPI, e.g. make venv
+
+Options (after `--` in Blender; `--` is optional with python):
+    --out DIR               where the PNG files go (default ./docs/gallery)
+    --size W H              image size in pixels (default 480 360)
+    --only NAME [NAME ...]  render only these presets (file names without .py, e.g. basilica)
+    --extension PATH        the extension zip to install when Unbound is not enabled
+                            (default: $UNBOUND_EXTENSION, else dist/unbound-*.zip of this repository)
+
+Each preset is applied as the Fractal Presets menu applies it (script.execute_preset with the
+fractal object active), so the gallery shows the presets' own settings: mu, theta, iterations,
+normals, colour, samples, shadows, ambient occlusion, reflections, fog and the sea. The script adds
+only what a preset does not hold: the camera, the world colour, a sun, and the Standard view
+transform (so that the PNG colours are the rendered values, not a tone-mapped version of them).
+Presets this script has no view for (a preset added later) get a default three-quarter view.
+
+The extension is found or installed as examples/animate_mu.py does: the enabled Unbound if there
+is one, else the zip installed into the "user_default" extension repository of the Blender user
+folder. Point BLENDER_USER_RESOURCES at another folder to keep your own Blender's folder untouched
+(the Makefile's gallery target sets it to a folder under build/):
+
+    BLENDER_USER_RESOURCES=build/blender-user python examples/gallery.py
+"""
+import argparse
+import atexit
+import glob
+import math
+import os
+import sys
+import time
+
+try:
+    import bpy
+except ImportError:
+    sys.exit("gallery: run me in Blender (blender --background --python %s) or with the bpy "
+             "module (make venv, or pip install bpy)" % sys.argv[0])
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ENGINE_ID = "UNBOUND"
+PRESET_MENU = "UNBOUND_MT_fractal_presets"
+
+# Per preset (file name without .py): the camera (location, target, focal length in mm), the sun
+# (the direction it shines toward and its strength in W/m^2, as in Cycles; None: no sun) and the
+# world colour, which is the background. Object space maps to the quaternions as x -> 1, y -> i,
+# z -> j: a complex Julia set lies in the x-y plane (Blender's ground plane) and its quaternion
+# slice swells out of it along z. The presets light the surface from the eye (the paper's axle
+# light, at full strength), so each sun comes from the side of the view, where it models the
+# surface and casts shadows instead of adding to what the axle light already lights.
+DARK = (0.02, 0.025, 0.04)
+SIDE_SUN = ((0.57, -0.3, -0.77), 2.0)  # from the upper left of a camera at the front left
+DEFAULT_VIEW = dict(camera=((-1.75, -3.3, 2.6), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK)
+VIEWS = {
+    # The paper's Fig. 5: mu = i, a dendrite, standing in the reflecting sea; a wide view across
+    # the water under a light sky.
+    "fig_5_dendrite_in_the_sea": dict(camera=((-1.2, -4.6, 0.55), (0.0, 0.0, -0.1), 35.0),
+                                      sun=((0.6, 0.45, -0.65), 3.0), world=(0.25, 0.33, 0.5)),
+    # Fig. 6: a valley in the surface of mu = -0.2 + 0.8i; the nearest surface is 0.45 from the eye.
+    "fig_6_surface_close-up": dict(camera=((-0.45, -0.62, 0.55), (0.3, -0.3, -0.2), 35.0),
+                                   sun=((0.6, 0.1, -0.8), 2.0), world=DARK),
+    # Fig. 7: mu = -0.2 + 0.8i turned by theta = 110 degrees before the lift; a closer view.
+    "fig_7_theta_110": dict(camera=((0.7, -3.5, 1.9), (0.0, -0.1, 0.0), 55.0), sun=SIDE_SUN, world=DARK),
+    # The well-known complex Julia sets lifted into the quaternions: three-quarter views.
+    "basilica": dict(camera=((-1.0, -4.0, 2.4), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "siegel_disk": dict(camera=((-1.75, -3.3, 2.6), (0.0, 0.0, -0.15), 50.0), sun=SIDE_SUN, world=DARK),
+}
+
+
+# -- arguments -------------------------------------------------------------------------------------
+
+def script_args(argv=None):
+    """This script's own arguments: those after `--` (Blender passes its own argv), else with the
+    bpy module everything after the script name."""
+    argv = sys.argv if argv is None else argv
+    if "--" in argv:
+        return argv[argv.index("--") + 1:]
+    if bpy.app.binary_path:  # inside Blender: the rest of argv is Blender's
+        return []
+    return argv[1:]
+
+
+def parse_args(args):
+    p = argparse.ArgumentParser(prog="gallery.py", description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", default=os.path.join("docs", "gallery"), help="output folder")
+    p.add_argument("--size", nargs=2, type=int, default=(480, 360), metavar=("W", "H"))
+    p.add_argument("--only", nargs="+", default=None, metavar="NAME", help="render only these presets")
+    p.add_argument("--extension", default=os.environ.get("UNBOUND_EXTENSION"),
+                   help="extension zip to install if Unbound is not enabled")
+    a = p.parse_args(args)
+    if min(a.size) < 1:
+        p.error("--size: at least 1 x 1 pixels")
+    return a
+
+
+# -- the extension ---------------------------------------------------------------------------------
+
+def enabled_unbound():
+    """Module name of an enabled Unbound extension (bl_ext.<repository>.unbound), or None."""
+    return next((m for m in bpy.context.preferences.addons.keys()
+                 if m.startswith("bl_ext.") and m.endswith(".unbound")), None)
+
+
+def default_zip():
+    zips = sorted(glob.glob(os.path.join(HERE, os.pardir, "dist", "unbound-*.zip")))
+    return zips[-1] if zips else None
+
+
+def ensure_extension(zip_path=None):
+    """Use the enabled Unbound extension, else install and enable the zip. Returns its module name."""
+    module = enabled_unbound()
+    if module is None:
+        zip_path = zip_path or default_zip()
+        if not zip_path or not os.path.isfile(zip_path):
+            sys.exit("gallery: Unbound is not enabled and there is no extension zip to install "
+                     "(build one with `make extension`, or pass --extension PATH)")
+        result = bpy.ops.extensions.package_install_files(filepath=os.path.abspath(zip_path),
+                                                          repo='user_default', enable_on_install=True)
+        module = enabled_unbound()
+        if result != {'FINISHED'} or module is None:
+            sys.exit("gallery: could not install and enable %s" % zip_path)
+        print("gallery: installed %s as %s" % (zip_path, module))
+    if not bpy.app.binary_path:  # the bpy module, not Blender
+        atexit.register(_release_addon, module)
+    return module
+
+
+def _release_addon(module):
+    """bpy module only: bpy 4.2/4.5 crash or hang at exit while an add-on with a RenderEngine is
+    still registered, so unregister it while Python still runs (without saving preferences)."""
+    import addon_utils
+    if module in bpy.context.preferences.addons:
+        addon_utils.disable(module, default_set=False)
+
+
+def bundled_presets(module):
+    """{name: path} of the presets shipped with the extension, in file-name order."""
+    folder = sys.modules[module].operators.BUNDLED_PRESETS
+    return {os.path.splitext(os.path.basename(f))[0]: f
+            for f in sorted(glob.glob(os.path.join(folder, "*.py")))}
+
+
+# -- the scene -------------------------------------------------------------------------------------
+
+def look_at(ob, location, target):
+    from mathutils import Vector
+    ob.location = location
+    ob.rotation_euler = (Vector(target) - Vector(location)).to_track_quat('-Z', 'Y').to_euler()
+
+
+def build_scene(preset, view, width, height):
+    """A new empty scene for one preset: camera, world, sun, a fractal object with the preset
+    applied. Returns (scene, fractal object)."""
+    from mathutils import Vector
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    r = scene.render
+    r.engine = ENGINE_ID
+    r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
+    scene.view_settings.view_transform = 'Standard'  # the PNG holds the rendered colours (sRGB)
+
+    world = bpy.data.worlds.new("Backdrop")
+    world.color = view["world"]
+    if world.node_tree:  # 5.x worlds always use nodes: the engine reads the Background node
+        bg = next((n for n in world.node_tree.nodes if n.type == 'BACKGROUND'), None)
+        if bg is not None:
+            bg.inputs["Color"].default_value = (*world.color, 1.0)
+            bg.inputs["Strength"].default_value = 1.0
+    scene.world = world
+
+    location, target, lens = view["camera"]
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.lens = lens
+    cam.data.clip_start = 0.01
+    scene.collection.objects.link(cam)
+    look_at(cam, location, target)
+    scene.camera = cam
+
+    if view["sun"] is not None:
+        direction, strength = view["sun"]
+        sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+        sun.data.energy = strength          # W/m^2, as in Cycles
+        sun.data.angle = math.radians(1.0)  # used by soft shadows only
+        sun.rotation_euler = Vector(direction).to_track_quat('-Z', 'Y').to_euler()
+        scene.collection.objects.link(sun)
+
+    bpy.ops.object.unbound_fractal_add(use_cursor=False)
+    ob = bpy.context.object
+    ob.name = os.path.splitext(os.path.basename(preset))[0]
+    # As the Fractal Presets menu does: the preset script runs with the fractal object active.
+    result = bpy.ops.script.execute_preset(filepath=preset, menu_idname=PRESET_MENU)
+    if result != {'FINISHED'}:
+        sys.exit("gallery: could not apply the preset %s" % preset)
+    return scene, ob
+
+
+def render_png(scene, path):
+    """F12 through Blender's pipeline, saved as an 8-bit RGB PNG."""
+    ims = scene.render.image_settings
+    if bpy.app.version >= (5, 0, 0):
+        ims.media_type = 'IMAGE'
+    ims.file_format = 'PNG'
+    ims.color_mode, ims.color_depth, ims.compression = 'RGB', '8', 100
+    scene.render.filepath = path
+    scene.render.use_file_extension = False
+    if os.path.isfile(path):  # so that a file from an earlier run cannot pass for this one's
+        os.remove(path)
+    bpy.ops.render.render(write_still=True)
+    if not os.path.isfile(path):
+        sys.exit("gallery: the render wrote no %s (see Blender's messages above)" % path)
+
+
+def describe(ob):
+    u = ob.unbound
+    return "mu = (%s), theta = %.0f deg" % (", ".join("%g" % round(c, 4) for c in u.mu), math.degrees(u.theta))
+
+
+def main(argv=None):
+    a = parse_args(script_args(argv))
+    started = time.perf_counter()
+    module = ensure_extension(a.extension)
+    presets = bundled_presets(module)
+    if a.only:
+        unknown = sorted(set(a.only) - set(presets))
+        if unknown:
+            sys.exit("gallery: no bundled preset %s (there are: %s)" % (", ".join(unknown), ", ".join(presets)))
+        presets = {name: path for name, path in presets.items() if name in a.only}
+    out = os.path.abspath(a.out)
+    os.makedirs(out, exist_ok=True)
+    written = []
+    for name, preset in presets.items():
+        t0 = time.perf_counter()
+        scene, ob = build_scene(preset, VIEWS.get(name, DEFAULT_VIEW), a.size[0], a.size[1])
+        path = os.path.join(out, name + ".png")
+        render_png(scene, path)
+        print(path)
+        print("gallery: %s: %s, %d samples, %.1f s" % (name, describe(ob), scene.unbound.samples,
+                                                        time.perf_counter() - t0))
+        written.append(path)
+    print("gallery: %d presets (%d x %d px) in %s, %.1f s"
+          % (len(written), a.size[0], a.size[1], out, time.perf_counter() - started))
+    return written
+
+
+if __name__ == "__main__":
+    main()
