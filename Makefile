@@ -42,7 +42,10 @@ bench: wheel
 
 # The main job: a keyframed mu animation rendered through Blender's pipeline (bpy 4.2) with the
 # built extension installed by Blender's installer into a private user directory.
+# A fresh user directory each time: Blender's installer keeps an already installed wheel of the
+# same name and version, which would leave an older native core in place.
 demo: extension
+	rm -rf build/blender-user
 	mkdir -p build/blender-user/config
 	BLENDER_USER_RESOURCES=$(CURDIR)/build/blender-user $(PY) examples/animate_mu.py --out $(CURDIR)/out/animate_mu
 

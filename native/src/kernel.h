@@ -177,14 +177,22 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, i
         v_store(e0, dps[k].eps0);
         v_store(e1, dps[k].eps1);
         for (int l = 0; l < UB_LANES; l++) {
-            double wp[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, op[3];
+            double path = (double)pr->t_base[l] + tr->t[l];
+            /* Normals and the orbit trap are evaluated a few float ulps of the object's size back
+             * along the ray: a hit right where the ray enters the bounding ball (mu = 0: the ball
+             * is the set) otherwise lands inside by rounding half the time, where the orbit
+             * collapses to 0 and the Jacobian with it. Far below the gradient step, so the
+             * central differences of eq. 15 do not notice. */
+            double step = UB_FN(gradient_step)(o, path);
+            double back = 1e-6 * o->sigma_min * (1.0 + fabs(o->bound_radius));
+            double wp[3] = {sf->p[0][l] - back * pr->dir[0][l], sf->p[1][l] - back * pr->dir[1][l],
+                            sf->p[2][l] - back * pr->dir[2][l]}, op[3];
             float ql[4];
             UB_FN(world_to_object_point)(o, wp, op);
             UB_FN(to_quaternion)(o, op, ql);
             for (int c = 0; c < 4; c++)
                 q[c][l] = ql[c];
-            double path = (double)pr->t_base[l] + tr->t[l];
-            hb_[l] = (float)(UB_FN(gradient_step)(o, path) / o->sigma_min);
+            hb_[l] = (float)(step / o->sigma_min);
             if (!((mine >> l) & 1))
                 continue;
             /* Secondary rays start a few hit thresholds off the surface. */

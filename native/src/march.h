@@ -81,8 +81,8 @@ static inline vf UB_FN(threshold)(const UB_FN(ub_de_params) *p, vf t)
  * it still stops the ray. With `penumbra` (shadow rays), also tracks min d / (t tan(angle)):
  * how nearly the ray missed, relative to the light's apparent size (soft shadows). */
 static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_de_params) *dp,
-                         const UB_FN(ub_object_rays) *r, vf t_base, int lanes, UB_FN(ub_march_result) *res,
-                         vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
+                         const UB_FN(ub_object_rays) *r, vf t_base, int lanes, int refine_hits,
+                         UB_FN(ub_march_result) *res, vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
 {
     vf q0[4], qd[4];
     for (int k = 0; k < 4; k++) {
@@ -128,8 +128,9 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
         s = v_select(active, v_add(s, step_len), s);
         active = m_and(active, v_le(s, s_max));
     }
-    /* Optional refinement: bisect between the last sample outside the threshold and the hit. */
-    vm refine = penumbra ? m_false() : res->hit;
+    /* Optional refinement: bisect between the last sample outside the threshold and the hit.
+     * Shadow rays only ask whether something is hit, not where. */
+    vm refine = refine_hits ? res->hit : m_false();
     vf lo = hit_prev, hi = res->s;
     for (int k = 0; k < o->bisection_steps && m_bits(refine); k++) {
         vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
@@ -203,7 +204,7 @@ static void UB_FN(trace)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, con
         if (!active)
             continue;
         UB_FN(ub_march_result) res;
-        UB_FN(march)(sc, o, &dps[k], &orays, tb, active, &res, &steps, tan_angle ? &pen : NULL, tanv, cnt);
+        UB_FN(march)(sc, o, &dps[k], &orays, tb, active, !any_hit, &res, &steps, tan_angle ? &pen : NULL, tanv, cnt);
         int hits = m_bits(res.hit) & active;
         if (!hits)
             continue;

@@ -936,7 +936,8 @@ static PyObject *py_normals(PyObject *self, PyObject *args, PyObject *kwargs)
     if (get_float_buffer(t_o, "t", n, 0, 0, &tv))
         goto out;
     have_t = 1;
-    if (get_float_buffer(n_o, "normals", n, 3, 3, &nv))
+    /* (n, 3): the one-channel form of get_float_buffer is a (rows, cols) matrix. */
+    if (get_float_buffer(n_o, "normals", n, 3, 1, &nv))
         goto out;
     have_n = 1;
     {

@@ -13,6 +13,7 @@ from ._native import (  # noqa: F401
     cpu_info,
     describe,
     estimate,
+    normals,
     render,
 )
 from .camera import look_at, orthographic, perspective  # noqa: F401
