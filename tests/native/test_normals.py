@@ -55,7 +55,7 @@ def test_normals_api_accepts_documented_buffers():
     pts = (sphere_directions(5, 0) * 1.01).astype(np.float32)
     t = np.full(5, 3.0, np.float32)
     out = np.full((5, 3), np.nan, np.float32)
-    _NORMALS(dict(BALL), pts, t, out)
+    uc.normals(dict(BALL), pts, t, out)
     assert np.all(np.isfinite(out))
     np.testing.assert_allclose(np.linalg.norm(out, axis=1), 1.0, atol=1e-6)
 
