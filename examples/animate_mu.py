@@ -30,8 +30,6 @@ honour it (the Makefile's demo sets it to a folder under build/):
     BLENDER_USER_RESOURCES=build/blender-user python examples/animate_mu.py
 """
 import argparse
-import atexit
-import glob
 import math
 import os
 import sys
@@ -44,6 +42,8 @@ except ImportError:
              "module (make venv, or pip install bpy)" % sys.argv[0])
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)  # Blender's --python does not put the script's folder on the path
+from unbound_extension import ensure_extension  # noqa: E402
 ENGINE_ID = "UNBOUND"
 LOOP_FRAMES = 48      # frames per loop of mu around its path
 KEYS_PER_LOOP = 8     # keyframes per loop; Bezier curves with cyclic auto handles in between
@@ -82,44 +82,6 @@ def parse_args(args):
     return a
 
 
-# -- the extension ---------------------------------------------------------------------------------
-
-def enabled_unbound():
-    """Module name of an enabled Unbound extension (bl_ext.<repository>.unbound), or None."""
-    return next((m for m in bpy.context.preferences.addons.keys()
-                 if m.startswith("bl_ext.") and m.endswith(".unbound")), None)
-
-
-def default_zip():
-    zips = sorted(glob.glob(os.path.join(HERE, os.pardir, "dist", "unbound-*.zip")))
-    return zips[-1] if zips else None
-
-
-def ensure_extension(zip_path=None):
-    """Use the enabled Unbound extension, else install and enable the zip. Returns its module name."""
-    module = enabled_unbound()
-    if module is None:
-        zip_path = zip_path or default_zip()
-        if not zip_path or not os.path.isfile(zip_path):
-            sys.exit("animate_mu: Unbound is not enabled and there is no extension zip to install "
-                     "(build one with `make extension`, or pass --extension PATH)")
-        result = bpy.ops.extensions.package_install_files(filepath=os.path.abspath(zip_path),
-                                                          repo='user_default', enable_on_install=True)
-        module = enabled_unbound()
-        if result != {'FINISHED'} or module is None:
-            sys.exit("animate_mu: could not install and enable %s" % zip_path)
-        print("animate_mu: installed %s as %s" % (zip_path, module))
-    if not bpy.app.binary_path:  # the bpy module, not Blender
-        atexit.register(_release_addon, module)
-    return module
-
-
-def _release_addon(module):
-    """bpy module only: bpy 4.2/4.5 crash or hang at exit while an add-on with a RenderEngine is
-    still registered, so unregister it while Python still runs (without saving preferences)."""
-    import addon_utils
-    if module in bpy.context.preferences.addons:
-        addon_utils.disable(module, default_set=False)
 
 
 # -- the scene -------------------------------------------------------------------------------------
@@ -240,7 +202,7 @@ def render_animation(scene, start, end, pattern, kind):
 def main(argv=None):
     a = parse_args(script_args(argv))
     started = time.perf_counter()
-    ensure_extension(a.extension)
+    ensure_extension(a.extension, prog='animate_mu')
     scene, _ = build_scene(a.resolution[0], a.resolution[1], a.percentage, a.loop)
     out = os.path.abspath(a.out)
     start, end = a.frames
