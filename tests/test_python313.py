@@ -36,6 +36,7 @@ def test_native_suite_under_python313():
 
 def test_engine_suite_under_bpy52():
     run = chroot("/opt/venv/bin/python -c 'import bpy; print(\"bpy\", bpy.app.version_string)' && "
-                 "/opt/venv/bin/python -m pytest -q -p no:cacheprovider tests/blender/test_engine.py")
+                 "/opt/venv/bin/python -m pytest -q -p no:cacheprovider tests/blender/test_engine.py "
+                 "tests/blender/test_shading_blender.py")
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
     assert "bpy 5.2" in run.stdout and " passed" in run.stdout and "failed" not in run.stdout

@@ -339,6 +339,8 @@ def test_keyframed_shading_settings_reach_each_frame(run_bpy, tmp_path):
         sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
         scene.collection.objects.link(sun)
         sun.rotation_euler = (-0.5, 0.3, 0.0)
+        # Linear keys (the halving check below), set the way a user would: Preferences > Animation.
+        bpy.context.preferences.edit.keyframe_new_interpolation_type = 'LINEAR'
         u = scene.unbound
         u.axle_light = 0.5
         u.ao_distance = 0.8
@@ -350,10 +352,6 @@ def test_keyframed_shading_settings_reach_each_frame(run_bpy, tmp_path):
         ob.keyframe_insert("unbound.normal_alpha", frame=3)
         ob.unbound.normal_alpha = 0.2
         ob.keyframe_insert("unbound.normal_alpha", frame=5)
-        for action in (scene.animation_data.action, ob.animation_data.action):
-            for fc in action.fcurves:
-                for kp in fc.keyframe_points:
-                    kp.interpolation = 'LINEAR'
         bpy.ops.object.unbound_color_ramp_add()
         tex = ob.unbound.color_ramp_texture
         for frame, colour in ((1, (1.0, 0.0, 0.0, 1.0)), (5, (0.0, 0.0, 1.0, 1.0))):
