@@ -141,7 +141,7 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
                                 "0 constant (inverse clarity), 1 linear (even clarity), 2 quadratic "
                                 "(exaggerated depth)", default=1.0, min=0.0, max=4.0, soft_max=2.0)
     reflectivity: FloatProperty(name="Reflectivity", description="Fraction of light mirrored by the surface "
-                                "(needs Reflection Bounces)", default=0.0, min=0.0, max=1.0, subtype='FACTOR')
+                                "(needs Reflections above 0)", default=0.0, min=0.0, max=1.0, subtype='FACTOR')
     color_mode: EnumProperty(name="Coloring", description="How the surface colour is chosen",
                              items=COLOR_MODES, default='BASE')
     color_ramp_texture: PointerProperty(name="Color Ramp", description="Texture whose colour ramp colours the "
@@ -168,13 +168,13 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
     shadows: EnumProperty(name="Shadows", description="Shadows of the scene's lights", items=SHADOW_MODES,
                           default='HARD')
     # Effects
-    ao_strength: FloatProperty(name="Ambient Occlusion", description="Strength of the occlusion estimated from "
+    ao_strength: FloatProperty(name="AO Strength", description="Strength of the occlusion estimated from "
                                "the distance estimate (0: off)", default=0.0, min=0.0, max=1.0, subtype='FACTOR')
     ao_distance: FloatProperty(name="AO Distance", description="Distance of the farthest occlusion sample",
                                default=0.5, min=1e-6, max=1e6, soft_max=10.0, subtype='DISTANCE')
     ao_samples: IntProperty(name="AO Samples", description="Occlusion samples along the normal", default=5,
                             min=1, max=32)
-    reflection_depth: IntProperty(name="Reflection Bounces", description="Mirror bounces of reflective "
+    reflection_depth: IntProperty(name="Reflections", description="Mirror bounces of reflective "
                                   "surfaces (0: off)", default=0, min=0, max=16)
     fog_density: FloatProperty(name="Fog Density", description="Depth cue: colour fades toward the fog colour "
                                "as 1 - exp(-density * distance) (0: off)", default=0.0, min=0.0, max=1e6,
@@ -201,7 +201,7 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
     sea_color: FloatVectorProperty(name="Color", description="Colour of the sea", subtype='COLOR', size=3,
                                    default=(0.1, 0.25, 0.4), min=0.0, max=1e6, soft_max=1.0)
     sea_reflectivity: FloatProperty(name="Reflectivity", description="Fraction of light the sea mirrors "
-                                    "(needs Reflection Bounces)", default=0.5, min=0.0, max=1.0, subtype='FACTOR')
+                                    "(needs Reflections above 0)", default=0.5, min=0.0, max=1.0, subtype='FACTOR')
     simd: EnumProperty(name="SIMD", description="Vector instruction set of the marching kernel",
                        items=SIMD_MODES, default='AUTO')
 

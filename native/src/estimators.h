@@ -49,51 +49,6 @@ static inline void UB_FN(de_params)(const ub_object *o, const ub_camera *cam, UB
     p->eps1 = v_set1((float)(fixed ? 0.0 : cam->footprint1 / o->detail));
 }
 
-/* Distance estimate of section 3 at quaternion points q:
- *   d(z) = |f^n(z)| log|f^n(z)| / (2 |f^n'(z)|)
- * with f(z) = z^2 + mu iterated until |z| exceeds the escape radius or max_iterations is
- * reached. The running derivative obeys |f'| <- 2 |z| |f'| (|zh + hz| <= 2|z||h| in the
- * quaternions); we carry its square, 4 |z|^2 |f'|^2, to avoid a square root per iteration.
- * Points that never escape are in K_mu as far as we can tell: their estimate is 0 (a hit).
- * Writes the estimate (object units) and the escape count. */
-static inline void UB_FN(de)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf d, vf *dist, vf *iters)
-{
-    vf r2 = v_fma(a, a, v_fma(b, b, v_fma(c, c, v_mul(d, d))));
-    vf dr2 = v_set1(1.0f);
-    vf n = v_set1(0.0f);
-    vm active = m_from_bits(0xff);
-    vm escaped = m_false();
-    const vf four = v_set1(4.0f);
-    for (int it = 0; it < p->max_iterations; it++) {
-        /* z^2 = (a^2 - b^2 - c^2 - d^2, 2ab, 2ac, 2ad): the imaginary parts of z commute with
-         * the real part, and v*v = -|v|^2 for a pure imaginary v (eq. 2-4). */
-        vf a2 = v_add(a, a);
-        vf na = v_sub(v_fma(a, a, p->mu[0]), v_fma(b, b, v_fma(c, c, v_mul(d, d))));
-        vf nb = v_fma(a2, b, p->mu[1]);
-        vf nc = v_fma(a2, c, p->mu[2]);
-        vf nd = v_fma(a2, d, p->mu[3]);
-        vf ndr2 = v_mul(dr2, v_mul(four, r2));
-        vf nr2 = v_fma(na, na, v_fma(nb, nb, v_fma(nc, nc, v_mul(nd, nd))));
-        a = v_select(active, na, a);
-        b = v_select(active, nb, b);
-        c = v_select(active, nc, c);
-        d = v_select(active, nd, d);
-        dr2 = v_select(active, ndr2, dr2);
-        r2 = v_select(active, nr2, r2);
-        n = v_count(n, active);
-        vm out = m_and(active, v_gt(nr2, p->bail2));
-        escaped = m_or(escaped, out);
-        active = m_andnot(out, active);
-        if (!m_bits(active))
-            break;
-    }
-    /* |z| log|z| / (2|z'|) = sqrt(r2 / dr2) * log(r2) / 4. dr2 may overflow to +inf deep
-     * inside long orbits: the estimate is then 0, which is what it tends to anyway. */
-    vf est = v_mul(v_mul(v_sqrt(v_div(r2, dr2)), UB_FN(v_log)(r2)), v_set1(0.25f));
-    *dist = v_select(escaped, est, v_set1(0.0f));
-    *iters = n;
-}
-
 /* What de_ext() computes besides the distance estimate. The flags are compile-time constants at
  * every call site, so each use inlines into a loop with only the work it asks for. */
 enum { UB_WANT_TRAP = 1, UB_WANT_POTENTIAL = 2, UB_WANT_JACOBIAN = 4 };
@@ -182,6 +137,20 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, const ub_object *
     if (want & UB_WANT_JACOBIAN)
         for (int k = 0; k < 3; k++)
             x->normal[k] = v_fma(a, j[k][0], v_fma(b, j[k][1], v_fma(c, j[k][2], v_mul(d, j[k][3]))));
+}
+
+/* Distance estimate of section 3 at quaternion points q:
+ *   d(z) = |f^n(z)| log|f^n(z)| / (2 |f^n'(z)|)
+ * with f(z) = z^2 + mu iterated until |z| exceeds the escape radius or max_iterations is
+ * reached. The running derivative obeys |f'| <- 2 |z| |f'| (|zh + hz| <= 2|z||h| in the
+ * quaternions); we carry its square, 4 |z|^2 |f'|^2, to avoid a square root per iteration.
+ * Points that never escape are in K_mu as far as we can tell: their estimate is 0 (a hit).
+ * Writes the estimate (object units) and the escape count. */
+static inline void UB_FN(de)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf d, vf *dist, vf *iters)
+{
+    /* want = 0: the compiler inlines de_ext down to the bare iteration (the marcher's hot loop). */
+    UB_FN(ub_de_extra) unused;
+    UB_FN(de_ext)(p, NULL, a, b, c, d, 0, dist, iters, &unused);
 }
 
 /* Object-space point -> quaternion on the object's slice, in double then rounded. */

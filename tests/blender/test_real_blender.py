@@ -122,8 +122,9 @@ def test_gui_panels_screenshots(user_dir):
     shots = {e["shot"]: e for e in log if "shot" in e}
     assert sorted(shots) == sorted(names), log
     expect = {"object_tab.png": ("OBJECT", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice",
-                                            "UNBOUND_PT_fractal_quality"}),
-              "render_tab.png": ("RENDER", {"UNBOUND_PT_render"}),
+                                            "UNBOUND_PT_fractal_quality", "UNBOUND_PT_fractal_shading"}),
+              "render_tab.png": ("RENDER", {"UNBOUND_PT_render", "UNBOUND_PT_render_lighting",
+                                            "UNBOUND_PT_render_effects"}),  # Sea starts closed
               "view_layer_tab.png": ("VIEW_LAYER", {"UNBOUND_PT_passes"})}
     for name, (tab, panels) in expect.items():
         e = shots[name]
