@@ -74,14 +74,12 @@ def image_window(scene):
     return width, height, (x0, y0, x1 - x0, y1 - y0)
 
 
-def background(scene):
-    """Premultiplied RGBA of the background: transparent film, else the world colour (the colour
-    and strength of a Background node feeding the World Output, or the world's viewport colour)."""
-    if scene.render.film_transparent:
-        return (0.0, 0.0, 0.0, 0.0)
+def world_color(scene):
+    """Scene-linear RGB of the world: the colour and strength of a Background node feeding the
+    World Output, or the world's viewport colour; black without a world."""
     world = scene.world
     if world is None:
-        return (0.0, 0.0, 0.0, 1.0)
+        return (0.0, 0.0, 0.0)
     color, strength = tuple(world.color), 1.0
     if world.use_nodes and world.node_tree:
         out = next((n for n in world.node_tree.nodes if n.type == 'OUTPUT_WORLD' and n.is_active_output), None)
@@ -92,7 +90,14 @@ def background(scene):
                 color = tuple(bg.inputs["Color"].default_value)[:3]
             if not bg.inputs["Strength"].is_linked:
                 strength = bg.inputs["Strength"].default_value
-    return (color[0] * strength, color[1] * strength, color[2] * strength, 1.0)
+    return (color[0] * strength, color[1] * strength, color[2] * strength)
+
+
+def background(scene):
+    """Premultiplied RGBA of the background: transparent film, else the world colour."""
+    if scene.render.film_transparent:
+        return (0.0, 0.0, 0.0, 0.0)
+    return world_color(scene) + (1.0,)
 
 
 def light_description(light, matrix):
@@ -144,10 +149,7 @@ def shading_description(depsgraph):
         lights = [d for _, d in found]
     if len(lights) > 64:
         raise RenderError("The scene has %d lights; Unbound renders at most 64" % len(lights))
-    fog_color = tuple(s.fog_color)
-    if s.fog_use_world:
-        bg = background(scene) if not scene.render.film_transparent else None
-        fog_color = bg[:3] if bg else tuple(scene.world.color) if scene.world else (0.0, 0.0, 0.0)
+    fog_color = world_color(scene) if s.fog_use_world else tuple(s.fog_color)
     sea = None
     if s.use_sea:
         sea = dict(height=s.sea_height, wavelength=s.sea_wavelength, amplitude=s.sea_amplitude,

@@ -75,7 +75,6 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, const ub_object *
             for (int c4 = 0; c4 < 4; c4++)
                 j[k][c4] = v_set1((float)o->slice_basis[c4][k]);
     vm active = m_from_bits(0xff);
-    vm escaped = m_false();
     const vf four = v_set1(4.0f), two = v_set1(2.0f), half = v_set1(0.5f);
     for (int it = 0; it < p->max_iterations; it++) {
         if (want & UB_WANT_JACOBIAN) {
@@ -120,12 +119,12 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, const ub_object *
         if (want & UB_WANT_POTENTIAL)
             gscale = v_select(active, v_mul(gscale, half), gscale);
         n = v_count(n, active);
-        vm out = m_and(active, v_gt(nr2, p->bail2));
-        escaped = m_or(escaped, out);
-        active = m_andnot(out, active);
+        active = m_andnot(v_gt(nr2, p->bail2), active);
         if (!m_bits(active))
             break;
     }
+    /* A lane's r2 froze at its escape, the only way past the bailout (max_iterations >= 1). */
+    vm escaped = v_gt(r2, p->bail2);
     vf lr2 = UB_FN(v_log)(r2);
     vf est = v_mul(v_mul(v_sqrt(v_div(r2, dr2)), lr2), v_set1(0.25f));
     *dist = v_select(escaped, est, v_set1(0.0f));
@@ -170,6 +169,22 @@ static inline void UB_FN(world_to_object_point)(const ub_object *o, const double
     }
 }
 
+/* A packet of world points -> the object's quaternions, one per lane. */
+static inline void UB_FN(quaternion_lanes)(const ub_object *o, const double p[3][UB_LANES], vf q[4])
+{
+    float qs[4][UB_LANES];
+    for (int l = 0; l < UB_LANES; l++) {
+        double wp[3] = {p[0][l], p[1][l], p[2][l]}, op[3];
+        float ql[4];
+        UB_FN(world_to_object_point)(o, wp, op);
+        UB_FN(to_quaternion)(o, op, ql);
+        for (int c = 0; c < 4; c++)
+            qs[c][l] = ql[c];
+    }
+    for (int c = 0; c < 4; c++)
+        q[c] = v_load(qs[c]);
+}
+
 /* Object-space normal at quaternion points q (lanes in `lanes`), by the object's method:
  * eq. 15's central differences of d() or G() with the step h (object units), or the analytic
  * gradient. A degenerate gradient (all samples inside the set, or G flat) falls back to the
@@ -179,40 +194,31 @@ static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *
 {
     vf dist, it;
     UB_FN(ub_de_extra) x;
-    if (method == UB_NORMAL_GRADIENT_DISTANCE || method == UB_NORMAL_GRADIENT_POTENTIAL
-        || method == UB_NORMAL_ZBUFFER) {
+    vm good = m_false(); /* lanes with a usable gradient */
+    if (method != UB_NORMAL_ANALYTIC) {
+        const int potential = method == UB_NORMAL_GRADIENT_POTENTIAL;
         for (int axis = 0; axis < 3; axis++) {
-            vf off[4], vp, vn;
+            vf off[4], v[2];
             for (int k = 0; k < 4; k++)
                 off[k] = v_mul(h, v_set1((float)o->slice_basis[k][axis]));
-            if (method == UB_NORMAL_GRADIENT_POTENTIAL) {
-                UB_FN(de_ext)(dp, o, v_add(q[0], off[0]), v_add(q[1], off[1]), v_add(q[2], off[2]),
-                              v_add(q[3], off[3]), UB_WANT_POTENTIAL, &dist, &it, &x);
-                vp = x.potential;
-                UB_FN(de_ext)(dp, o, v_sub(q[0], off[0]), v_sub(q[1], off[1]), v_sub(q[2], off[2]),
-                              v_sub(q[3], off[3]), UB_WANT_POTENTIAL, &dist, &it, &x);
-                vn = x.potential;
-            } else {
-                UB_FN(de)(dp, v_add(q[0], off[0]), v_add(q[1], off[1]), v_add(q[2], off[2]), v_add(q[3], off[3]),
-                          &vp, &it);
-                UB_FN(de)(dp, v_sub(q[0], off[0]), v_sub(q[1], off[1]), v_sub(q[2], off[2]), v_sub(q[3], off[3]),
-                          &vn, &it);
+            for (int side = 0; side < 2; side++) {
+                vf sg = v_set1(side ? -1.0f : 1.0f);
+                vf a = v_fma(sg, off[0], q[0]), b = v_fma(sg, off[1], q[1]), c = v_fma(sg, off[2], q[2]),
+                   d = v_fma(sg, off[3], q[3]);
+                if (potential) {
+                    UB_FN(de_ext)(dp, o, a, b, c, d, UB_WANT_POTENTIAL, &dist, &it, &x);
+                    v[side] = x.potential;
+                } else {
+                    UB_FN(de)(dp, a, b, c, d, &v[side], &it);
+                }
             }
-            g[axis] = v_sub(vp, vn);
+            g[axis] = v_sub(v[0], v[1]);
         }
-        vf len2 = v_fma(g[0], g[0], v_fma(g[1], g[1], v_mul(g[2], g[2])));
-        vm good = v_gt(len2, v_set1(0.0f));
-        if (m_bits(good) == 0xff)
-            return;
-        vf an[3];
-        UB_FN(de_ext)(dp, o, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
-        for (int k = 0; k < 3; k++)
-            an[k] = x.normal[k];
-        for (int k = 0; k < 3; k++)
-            g[k] = v_select(good, g[k], an[k]);
-        return;
+        good = v_gt(v_fma(g[0], g[0], v_fma(g[1], g[1], v_mul(g[2], g[2]))), v_set1(0.0f));
     }
+    if (m_bits(good) == 0xff)
+        return;
     UB_FN(de_ext)(dp, o, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
     for (int k = 0; k < 3; k++)
-        g[k] = x.normal[k];
+        g[k] = method == UB_NORMAL_ANALYTIC ? x.normal[k] : v_select(good, g[k], x.normal[k]);
 }

@@ -24,13 +24,27 @@
 #include "march.h"
 #include "shading.h"
 
-/* Camera ray of full-image pixel (px, py) for one anti-aliasing sample. */
-static void UB_FN(pixel_ray)(const ub_camera *cam, int px, int py, int sample, double o[3], double d[3],
+/* Camera ray of full-image pixel (px, py) at sub-pixel offset `off` (one anti-aliasing sample). */
+static void UB_FN(pixel_ray)(const ub_camera *cam, int px, int py, const double off[2], double o[3], double d[3],
                              double *t_min, double *t_max)
 {
-    double dx, dy;
-    ub_sample_offset(sample, &dx, &dy);
-    ub_camera_ray(cam, px + dx, py + dy, o, d, t_min, t_max);
+    ub_camera_ray(cam, px + off[0], py + off[1], o, d, t_min, t_max);
+}
+
+/* Camera rays of the n pixels (px, py) .. (px + n - 1, py); padding lanes repeat the last real
+ * pixel (their results are discarded). */
+static void UB_FN(camera_packet)(const ub_camera *cam, int px, int py, int n, const double off[2],
+                                 UB_FN(ub_packet_rays) *pr)
+{
+    for (int l = 0; l < UB_LANES; l++) {
+        double o[3], d[3];
+        UB_FN(pixel_ray)(cam, px + (l < n ? l : n - 1), py, off, o, d, &pr->t_min[l], &pr->t_max[l]);
+        for (int i = 0; i < 3; i++) {
+            pr->origin[i][l] = o[i];
+            pr->dir[i][l] = d[i];
+        }
+        pr->t_base[l] = 0.0f;
+    }
 }
 
 static void UB_FN(tile_primary)(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1,
@@ -40,23 +54,15 @@ static void UB_FN(tile_primary)(const ub_scene *sc, int sample, int tx0, int ty0
     UB_FN(ub_de_params) dps[UB_MAX_OBJECTS];
     for (int k = 0; k < sc->object_count; k++)
         UB_FN(de_params)(&sc->objects[k], sc->camera, &dps[k]);
+    double off[2];
+    ub_sample_offset(sample, &off[0], &off[1]);
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
             if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             UB_FN(ub_packet_rays) pr;
-            for (int l = 0; l < UB_LANES; l++) {
-                /* Padding lanes repeat the last real pixel; their results are discarded. */
-                double o[3], d[3];
-                UB_FN(pixel_ray)(sc->camera, hb->x0 + x + (l < n ? l : n - 1), hb->y0 + y, sample, o, d,
-                                 &pr.t_min[l], &pr.t_max[l]);
-                for (int i = 0; i < 3; i++) {
-                    pr.origin[i][l] = o[i];
-                    pr.dir[i][l] = d[i];
-                }
-                pr.t_base[l] = 0.0f;
-            }
+            UB_FN(camera_packet)(sc->camera, hb->x0 + x, hb->y0 + y, n, off, &pr);
             UB_FN(ub_trace_result) tr;
             UB_FN(trace)(sc, dps, &pr, (1 << n) - 1, sc->shading->sea, 0, NULL, &tr, cnt);
             for (int l = 0; l < n; l++) {
@@ -74,7 +80,8 @@ static void UB_FN(tile_primary)(const ub_scene *sc, int sample, int tx0, int ty0
 }
 
 /* World position of the hit of buffer pixel (bx, by), or 0 if it is not a hit on `object`. */
-static int UB_FN(buffer_point)(const ub_scene *sc, int sample, int bx, int by, int object, double p[3], float *t)
+static int UB_FN(buffer_point)(const ub_scene *sc, const double off[2], int bx, int by, int object, double p[3],
+                               float *t)
 {
     const ub_hit_buffer *hb = sc->hits;
     if (bx < 0 || by < 0 || bx >= hb->w || by >= hb->h)
@@ -83,7 +90,7 @@ static int UB_FN(buffer_point)(const ub_scene *sc, int sample, int bx, int by, i
     if (h->object != object)
         return 0;
     double o[3], d[3], t0, t1;
-    UB_FN(pixel_ray)(sc->camera, hb->x0 + bx, hb->y0 + by, sample, o, d, &t0, &t1);
+    UB_FN(pixel_ray)(sc->camera, hb->x0 + bx, hb->y0 + by, off, o, d, &t0, &t1);
     for (int i = 0; i < 3; i++)
         p[i] = o[i] + (double)h->t * d[i];
     *t = h->t;
@@ -93,7 +100,7 @@ static int UB_FN(buffer_point)(const ub_scene *sc, int sample, int bx, int by, i
 /* Eq. 12-14 with the neighbours' actual hit points (exact under perspective): the normal of the
  * plane through the hit and its right/up neighbours. Of the two neighbours on an axis, the one
  * nearer in depth on the same object is used, so silhouettes do not bend the normal. */
-static int UB_FN(zbuffer_normal)(const ub_scene *sc, int sample, int bx, int by, int object, const double p[3],
+static int UB_FN(zbuffer_normal)(const ub_scene *sc, const double off[2], int bx, int by, int object, const double p[3],
                                  float t, const double dir[3], double n[3])
 {
     double e[2][3];
@@ -103,8 +110,8 @@ static int UB_FN(zbuffer_normal)(const ub_scene *sc, int sample, int bx, int by,
         for (int side = 1; side >= -1; side -= 2) {
             double q[3];
             float tq;
-            int ok = axis == 0 ? UB_FN(buffer_point)(sc, sample, bx + side, by, object, q, &tq)
-                               : UB_FN(buffer_point)(sc, sample, bx, by + side, object, q, &tq);
+            int ok = axis == 0 ? UB_FN(buffer_point)(sc, off, bx + side, by, object, q, &tq)
+                               : UB_FN(buffer_point)(sc, off, bx, by + side, object, q, &tq);
             if (!ok || !(fabs((double)tq - t) < best))
                 continue;
             best = fabs((double)tq - t);
@@ -144,7 +151,7 @@ typedef struct {
 } UB_FN(ub_surface);
 
 /* Normals, colour and trap of the hits in `hit_lanes` of one bounce. */
-static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, int sample, int bounce, int fx,
+static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, const double off[2], int bounce, int fx,
                            int fy, const UB_FN(ub_packet_rays) *pr, const UB_FN(ub_trace_result) *tr,
                            int hit_lanes, int want_trap, UB_FN(ub_surface) *sf)
 {
@@ -172,36 +179,31 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, i
                 mine |= 1 << l;
         if (!mine)
             continue;
-        float q[4][UB_LANES], hb_[UB_LANES], e0[UB_LANES], e1[UB_LANES];
+        float hb_[UB_LANES], e0[UB_LANES], e1[UB_LANES];
+        double back_p[3][UB_LANES];
         int simd_lanes = mine;
         v_store(e0, dps[k].eps0);
         v_store(e1, dps[k].eps1);
+        /* Normals and the orbit trap are evaluated a few float ulps of the object's size back
+         * along the ray: a hit right where the ray enters the bounding ball (mu = 0: the ball is
+         * the set) otherwise lands inside by rounding half the time, where the orbit collapses to
+         * 0 and the Jacobian with it. Far below the gradient step, so eq. 15 does not notice. */
+        const double back = 1e-6 * o->sigma_min * (1.0 + fabs(o->bound_radius));
         for (int l = 0; l < UB_LANES; l++) {
-            double path = (double)pr->t_base[l] + tr->t[l];
-            /* Normals and the orbit trap are evaluated a few float ulps of the object's size back
-             * along the ray: a hit right where the ray enters the bounding ball (mu = 0: the ball
-             * is the set) otherwise lands inside by rounding half the time, where the orbit
-             * collapses to 0 and the Jacobian with it. Far below the gradient step, so the
-             * central differences of eq. 15 do not notice. */
-            double step = UB_FN(gradient_step)(o, path);
-            double back = 1e-6 * o->sigma_min * (1.0 + fabs(o->bound_radius));
-            double wp[3] = {sf->p[0][l] - back * pr->dir[0][l], sf->p[1][l] - back * pr->dir[1][l],
-                            sf->p[2][l] - back * pr->dir[2][l]}, op[3];
-            float ql[4];
-            UB_FN(world_to_object_point)(o, wp, op);
-            UB_FN(to_quaternion)(o, op, ql);
-            for (int c = 0; c < 4; c++)
-                q[c][l] = ql[c];
-            hb_[l] = (float)(step / o->sigma_min);
+            for (int i = 0; i < 3; i++)
+                back_p[i][l] = sf->p[i][l] - back * pr->dir[i][l];
+            hb_[l] = 1.0f; /* lanes of other objects: any finite step */
             if (!((mine >> l) & 1))
                 continue;
+            double path = (double)pr->t_base[l] + tr->t[l];
+            hb_[l] = (float)(UB_FN(gradient_step)(o, path) / o->sigma_min);
             /* Secondary rays start a few hit thresholds off the surface. */
             sf->bias[l] = 4.0f * (e0[l] + e1[l] * (float)path);
             sf->reflectivity[l] = o->reflectivity;
             if (o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0) {
                 double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, n[3];
                 double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-                if (UB_FN(zbuffer_normal)(sc, sample, fx + l + sc->film->x0 - hb->x0, fy + sc->film->y0 - hb->y0, k,
+                if (UB_FN(zbuffer_normal)(sc, off, fx + l + sc->film->x0 - hb->x0, fy + sc->film->y0 - hb->y0, k,
                                           p, tr->t[l], d, n)) {
                     for (int i = 0; i < 3; i++)
                         nw[i][l] = n[i];
@@ -211,8 +213,7 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, i
             }
         }
         vf qv[4];
-        for (int c = 0; c < 4; c++)
-            qv[c] = v_load(q[c]);
+        UB_FN(quaternion_lanes)(o, back_p, qv);
         if (simd_lanes) {
             vf g[3];
             int method = o->normal_method == UB_NORMAL_ZBUFFER ? UB_NORMAL_GRADIENT_DISTANCE : (int)o->normal_method;
@@ -427,6 +428,12 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
         UB_FN(de_params)(&sc->objects[k], cam, &dps[k]);
     const int want_trap = film->pass[UB_PASS_ORBIT_TRAP] != NULL;
     const float glow_scale = 1.0f / 64.0f;
+    /* AO only changes the ambient term: without ambient light it is needed for its pass alone. */
+    const int use_ao = sh->ao_strength > 0.0f
+                    && (sh->ambient[0] > 0.0f || sh->ambient[1] > 0.0f || sh->ambient[2] > 0.0f
+                        || film->pass[UB_PASS_AO] != NULL);
+    double off[2];
+    ub_sample_offset(sample, &off[0], &off[1]);
 
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
@@ -436,15 +443,9 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
             int lanes = (1 << n) - 1;
             UB_FN(ub_packet_rays) pr;
             UB_FN(ub_trace_result) tr;
+            UB_FN(camera_packet)(cam, film->x0 + x, film->y0 + y, n, off, &pr);
             for (int l = 0; l < UB_LANES; l++) {
                 int lx = x + (l < n ? l : n - 1);
-                double o[3], d[3];
-                UB_FN(pixel_ray)(cam, film->x0 + lx, film->y0 + y, sample, o, d, &pr.t_min[l], &pr.t_max[l]);
-                for (int i = 0; i < 3; i++) {
-                    pr.origin[i][l] = o[i];
-                    pr.dir[i][l] = d[i];
-                }
-                pr.t_base[l] = 0.0f;
                 const ub_hit *h = &hb->hits[(size_t)(film->y0 + y - hb->y0) * hb->w + (film->x0 + lx - hb->x0)];
                 tr.t[l] = h->t;
                 tr.iters[l] = h->iterations;
@@ -452,21 +453,19 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                 tr.steps[l] = h->steps;
                 tr.object[l] = h->object;
             }
-            float primary_steps[UB_LANES], primary_t[UB_LANES], primary_iters[UB_LANES], primary_dist[UB_LANES];
+            /* The camera rays' own results, kept for the passes: later bounces reuse tr. */
+            float primary_steps[UB_LANES], primary_iters[UB_LANES], primary_dist[UB_LANES];
             int primary_obj[UB_LANES];
-            double primary_dir[3][UB_LANES];
             memcpy(primary_steps, tr.steps, sizeof primary_steps);
-            memcpy(primary_t, tr.t, sizeof primary_t);
             memcpy(primary_iters, tr.iters, sizeof primary_iters);
             memcpy(primary_dist, tr.dist, sizeof primary_dist);
             memcpy(primary_obj, tr.object, sizeof primary_obj);
-            memcpy(primary_dir, pr.dir, sizeof primary_dir);
 
             /* Radiance along each path: L += W * (local light), W the path's throughput after
              * fog and reflectivity. Wr is the throughput without the first segment's fog, for
              * the Reflection pass. */
             float L[3][UB_LANES] = {{0}}, W[UB_LANES], Wr[UB_LANES], R[3][UB_LANES] = {{0}};
-            float pass_ao[UB_LANES], pass_shadow[UB_LANES], pass_trap[UB_LANES], fog0[UB_LANES];
+            float pass_ao[UB_LANES], pass_shadow[UB_LANES], pass_trap[UB_LANES];
             float pass_diffuse[3][UB_LANES] = {{0}}, pass_ambient[3][UB_LANES] = {{0}};
             double pos0[3][UB_LANES];
             float nrm0[3][UB_LANES];
@@ -476,7 +475,6 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                 pass_ao[l] = 1.0f;
                 pass_shadow[l] = 1.0f;
                 pass_trap[l] = 0.0f;
-                fog0[l] = 0.0f;
                 for (int i = 0; i < 3; i++) {
                     pos0[i][l] = 0.0;
                     nrm0[i][l] = 0.0f;
@@ -510,10 +508,9 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                 if (!hit_lanes)
                     break;
                 UB_FN(ub_surface) sf;
-                UB_FN(surface)(sc, dps, sample, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
+                UB_FN(surface)(sc, dps, off, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
                 float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
                 UB_FN(direct_light)(sc, dps, bounce, hit_lanes, &pr, &tr, &sf, direct, shadow, cnt);
-                int use_ao = sh->ao_strength > 0.0f && sh->ao_samples > 0;
                 if (use_ao)
                     UB_FN(ambient_occlusion)(sc, dps, hit_lanes, sf.p, sf.n, ao);
                 else
@@ -546,7 +543,6 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                         pass_ao[l] = ao[l];
                         pass_shadow[l] = shadow[l];
                         pass_trap[l] = sf.trap[l];
-                        fog0[l] = f;
                         Wr[l] = r;
                     } else {
                         Wr[l] *= (1.0f - f) * r;
@@ -606,9 +602,6 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                 UB_FN(put)(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, 1);
                 UB_FN(put)(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &pass_trap[l], sample, S, 1);
                 UB_FN(put)(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, 1);
-                (void)fog0;
-                (void)primary_t;
-                (void)primary_dir;
             }
         }
     }

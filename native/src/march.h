@@ -25,10 +25,10 @@ static int UB_FN(object_rays)(const ub_object *o, const UB_FN(ub_packet_rays) *r
 {
     int lanes = 0;
     for (int l = 0; l < UB_LANES; l++) {
-        double oo[3], od[3];
+        double wo[3] = {r->origin[0][l], r->origin[1][l], r->origin[2][l]}, oo[3], od[3];
+        UB_FN(world_to_object_point)(o, wo, oo);
         for (int i = 0; i < 3; i++) {
             const double *w = o->world_to_object[i];
-            oo[i] = w[0] * r->origin[0][l] + w[1] * r->origin[1][l] + w[2] * r->origin[2][l] + w[3];
             od[i] = w[0] * r->dir[0][l] + w[1] * r->dir[1][l] + w[2] * r->dir[2][l];
         }
         /* |oo + t od - c|^2 = R^2 */
@@ -52,9 +52,11 @@ static int UB_FN(object_rays)(const ub_object *o, const UB_FN(ub_packet_rays) *r
             t1 = t0;
         }
         double pe[3] = {oo[0] + t0 * od[0], oo[1] + t0 * od[1], oo[2] + t0 * od[2]};
+        float qe[4];
+        UB_FN(to_quaternion)(o, pe, qe);
         for (int k = 0; k < 4; k++) {
             const double *b = o->slice_basis[k];
-            out->q_enter[k][l] = (float)(o->slice_origin[k] + b[0] * pe[0] + b[1] * pe[1] + b[2] * pe[2]);
+            out->q_enter[k][l] = qe[k];
             out->q_dir[k][l] = (float)(b[0] * od[0] + b[1] * od[1] + b[2] * od[2]);
         }
         out->t_enter[l] = (float)t0;
@@ -94,20 +96,16 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
     const vf sigma = v_set1((float)o->sigma_min);
     const vf factor = v_set1((float)o->step_factor);
     const vf max_step = v_set1((float)o->max_step);
-    vf s = v_set1(0.0f), prev = v_set1(0.0f);
-    vf hit_prev = prev, iter_sum = v_set1(0.0f);
-    vm active = m_from_bits(lanes);
-    res->hit = m_false();
-    res->s = s;
-    res->iters = v_set1(0.0f);
-    res->dist = v_set1(0.0f);
+    /* A lane's s and prev freeze when it stops (hit or out of the ball): after the loop they are
+     * the hit and the last sample before it, without per-step bookkeeping. */
+    vf s = v_set1(0.0f), prev = s, iter_sum = s, dist = s, iters = s, dw = s;
+    vm active = m_from_bits(lanes), hit = m_false();
     for (int step = 0; step < o->max_steps && m_bits(active); step++) {
         if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
             return;
-        vf dist, iters;
         UB_FN(de)(dp, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
                   v_fma(s, qd[3], q0[3]), &dist, &iters);
-        vf dw = v_mul(dist, sigma);
+        dw = v_mul(dist, sigma);
         vf eps = UB_FN(threshold)(dp, v_add(tb, s));
         *steps = v_count(*steps, active);
         iter_sum = v_add(iter_sum, v_select(active, iters, v_set1(0.0f)));
@@ -117,24 +115,23 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
             vf ratio = v_div(v_sub(dw, eps), v_mul(tan_angle, v_add(te, s)));
             *penumbra = v_select(active, v_min(ratio, *penumbra), *penumbra);
         }
-        res->hit = m_or(res->hit, is_hit);
-        res->s = v_select(is_hit, s, res->s);
-        res->iters = v_select(is_hit, iters, res->iters);
-        res->dist = v_select(is_hit, dw, res->dist);
-        hit_prev = v_select(is_hit, prev, hit_prev);
+        hit = m_or(hit, is_hit);
         active = m_andnot(is_hit, active);
         vf step_len = v_min(v_mul(dw, factor), max_step);
         prev = v_select(active, s, prev);
         s = v_select(active, v_add(s, step_len), s);
         active = m_and(active, v_le(s, s_max));
     }
+    /* The last evaluation was at every lane's frozen s: a hit lane's estimate and escape count. */
+    res->hit = hit;
+    res->iters = iters;
+    res->dist = dw;
     /* Optional refinement: bisect between the last sample outside the threshold and the hit.
      * Shadow rays only ask whether something is hit, not where. */
-    vm refine = refine_hits ? res->hit : m_false();
-    vf lo = hit_prev, hi = res->s;
+    vm refine = refine_hits ? hit : m_false();
+    vf lo = prev, hi = s;
     for (int k = 0; k < o->bisection_steps && m_bits(refine); k++) {
         vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
-        vf dist, iters;
         UB_FN(de)(dp, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
                   v_fma(mid, qd[3], q0[3]), &dist, &iters);
         vf dw = v_mul(dist, sigma);

@@ -209,6 +209,24 @@ static const char *const epsilon_modes[] = {"pixel", "fixed", NULL};
 static const char *const normal_methods[] = {"gradient_distance", "gradient_potential", "zbuffer", "analytic", NULL};
 static const char *const color_modes[] = {"base", "orbit_trap", "iterations", NULL};
 
+/* A colour: 3 numbers within [0, hi]. */
+static int get_color(PyObject *o, const char *name, double hi, float out[3])
+{
+    double c[3];
+    if (get_vector(o, name, 3, c))
+        return -1;
+    for (int i = 0; i < 3; i++) {
+        if (!(c[i] >= 0.0 && c[i] <= hi)) {
+            char msg[ERRBUF + 64];
+            snprintf(msg, sizeof msg, "%s components must be within [0, %g]", name, hi);
+            PyErr_SetString(PyExc_ValueError, msg);
+            return -1;
+        }
+        out[i] = (float)c[i];
+    }
+    return 0;
+}
+
 /* A colour ramp: a sequence of 2..UB_MAX_RAMP RGB triples, uniformly spaced over [0, 1]. */
 static int get_ramp(PyObject *o, const char *name, ub_object *obj)
 {
@@ -229,18 +247,10 @@ static int get_ramp(PyObject *o, const char *name, ub_object *obj)
             return -1;
         char sub[ERRBUF];
         snprintf(sub, sizeof sub, "%s[%zd]", name, i);
-        double c[3];
-        int rc = get_vector(item, sub, 3, c);
+        int rc = get_color(item, sub, 1e6, obj->ramp[i]);
         Py_DECREF(item);
         if (rc)
             return -1;
-        for (int k = 0; k < 3; k++) {
-            if (c[k] < 0.0 || c[k] > 1e6) {
-                PyErr_Format(PyExc_ValueError, "%s colours must be within [0, 1e6]", name);
-                return -1;
-            }
-            obj->ramp[i][k] = (float)c[k];
-        }
     }
     obj->ramp_size = (int)len;
     return 0;
@@ -258,7 +268,6 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
     /* Defaults: the paper's dendrite-like mu of the benchmark, the 1-i-j slice at k = 0. */
     double mu[4] = {-0.2, 0.8, 0.0, 0.0}, theta = 0.0, basis[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
     double origin[4] = {0, 0, 0, 0}, matrix[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
-    double color[3] = {0.8, 0.8, 0.8};
     int kind = 0, mode = UB_EPSILON_PIXEL, normal_method = UB_NORMAL_GRADIENT_DISTANCE, color_mode = UB_COLOR_BASE;
     double reflectivity = 0.0, ramp_scale = 1.0, ramp_offset = 0.0;
     obj->normal_alpha = 1e-3;
@@ -304,7 +313,8 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
         return -1;
     if (FIELD("bisection_steps") && get_int(v, sub, 0, UB_MAX_BISECTION, &obj->bisection_steps))
         return -1;
-    if (FIELD("color") && get_vector(v, sub, 3, color))
+    obj->color[0] = obj->color[1] = obj->color[2] = 0.8f;
+    if (FIELD("color") && get_color(v, sub, 1e6, obj->color))
         return -1;
     if (FIELD("normal_method") && get_choice(v, sub, normal_methods, &normal_method))
         return -1;
@@ -323,11 +333,6 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
     if (FIELD("ramp_offset") && get_double(v, sub, -1e6, 1e6, 0, &ramp_offset))
         return -1;
 #undef FIELD
-    for (int i = 0; i < 3; i++)
-        if (!(color[i] >= 0.0 && color[i] <= 1e6)) {
-            PyErr_Format(PyExc_ValueError, "%s.color components must be within [0, 1e6]", name);
-            return -1;
-        }
     obj->normal_method = (ub_normal_method)normal_method;
     obj->color_mode = (ub_color_mode)color_mode;
     obj->reflectivity = (float)reflectivity;
@@ -347,8 +352,6 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
     obj->kind = (ub_fractal_kind)kind;
     obj->epsilon_mode = (ub_epsilon_mode)mode;
     memcpy(obj->mu, mu, sizeof mu);
-    for (int i = 0; i < 3; i++)
-        obj->color[i] = (float)color[i];
     const char *err = ub_object_prepare(obj, theta, basis, origin, matrix);
     if (err) {
         PyErr_Format(PyExc_ValueError, "%s: %s", name, err);
@@ -396,24 +399,6 @@ static const char *const light_keys[] = {"type", "position", "direction", "color
                                          "spot_blend", "cast_shadow", "soft_falloff", NULL};
 static const char *const light_types[] = {"point", "sun", "spot", "area", NULL};
 static const char *const shadow_modes[] = {"none", "hard", "soft", NULL};
-
-/* A colour: 3 numbers within [0, hi]. */
-static int get_color(PyObject *o, const char *name, double hi, float out[3])
-{
-    double c[3];
-    if (get_vector(o, name, 3, c))
-        return -1;
-    for (int i = 0; i < 3; i++) {
-        if (!(c[i] >= 0.0 && c[i] <= hi)) {
-            char msg[ERRBUF + 64];
-            snprintf(msg, sizeof msg, "%s components must be within [0, %g]", name, hi);
-            PyErr_SetString(PyExc_ValueError, msg);
-            return -1;
-        }
-        out[i] = (float)c[i];
-    }
-    return 0;
-}
 
 static int get_bool(PyObject *o, const char *name, int *out)
 {
@@ -632,12 +617,10 @@ static int get_float_buffer(PyObject *o, const char *name, Py_ssize_t rows, Py_s
         ok_shape = 1;
     if (chans == 0 && view->ndim == 1 && view->shape[0] == rows)
         ok_shape = 1;
-    if (chans == 0 && view->ndim == 2 && view->shape[0] == rows && view->shape[1] == cols)
-        ok_shape = 1;
     if (!ok_shape) {
         PyBuffer_Release(view);
         if (chans == 0)
-            PyErr_Format(PyExc_ValueError, "%s must have shape (%zd,)%s", name, rows, cols ? " or (n, 3)" : "");
+            PyErr_Format(PyExc_ValueError, "%s must have shape (%zd,)", name, rows);
         else
             PyErr_Format(PyExc_ValueError, "%s must have shape (%zd, %zd, %d)%s", name, rows, cols, chans,
                          chans == 1 ? " or (height, width)" : "");
@@ -848,6 +831,41 @@ done:
 
 /* ---------------------------------------------------------------- estimate(), camera_ray(), describe() */
 
+/* Object-space points for estimate() and normals(): a C-contiguous float32 (n, 3) array.
+ * Returns n, or -1 with an exception set (the view is released then). */
+static Py_ssize_t get_points(PyObject *o, Py_buffer *view)
+{
+    if (PyObject_GetBuffer(o, view, PyBUF_RECORDS_RO) != 0) {
+        PyErr_Clear();
+        PyErr_SetString(PyExc_TypeError, "points must be a float32 array of shape (n, 3)");
+        return -1;
+    }
+    const char *fmt = view->format ? view->format : "B";
+    if (fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@')
+        fmt++;
+    if (view->ndim != 2 || view->shape[1] != 3 || strcmp(fmt, "f") != 0 || view->itemsize != 4
+        || !PyBuffer_IsContiguous(view, 'C')) {
+        PyBuffer_Release(view);
+        PyErr_SetString(PyExc_ValueError, "points must be a C-contiguous float32 array of shape (n, 3)");
+        return -1;
+    }
+    return view->shape[0];
+}
+
+/* The simd= keyword of estimate() and normals(): -1 with an exception set, else 0/1 (AVX2). */
+static int get_simd(PyObject *o)
+{
+    int isa = UB_ISA_AUTO, use_avx2;
+    if (o && get_choice(o, "simd", isa_names, &isa))
+        return -1;
+    const char *err = ub_resolve_isa((ub_isa)isa, &use_avx2);
+    if (err) {
+        PyErr_SetString(PyExc_ValueError, err);
+        return -1;
+    }
+    return use_avx2;
+}
+
 static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *kwlist[] = {"object", "points", "estimate", "iterations", "simd", NULL};
@@ -857,28 +875,13 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
     ub_object obj;
     if (parse_object(obj_o, "object", &obj))
         return NULL;
-    int isa = UB_ISA_AUTO;
-    if (simd_o && get_choice(simd_o, "simd", isa_names, &isa))
+    int avx2 = get_simd(simd_o);
+    if (avx2 < 0)
         return NULL;
-    if (isa == UB_ISA_AVX2 && !ub_cpu_has_avx2_fma()) {
-        PyErr_SetString(PyExc_ValueError, "simd='avx2' requested but this CPU lacks AVX2/FMA");
-        return NULL;
-    }
     Py_buffer pv, ev, iv;
-    if (PyObject_GetBuffer(pts_o, &pv, PyBUF_RECORDS_RO) != 0) {
-        PyErr_Clear();
-        PyErr_SetString(PyExc_TypeError, "points must be a float32 array of shape (n, 3)");
+    Py_ssize_t n = get_points(pts_o, &pv);
+    if (n < 0)
         return NULL;
-    }
-    Py_ssize_t n = pv.ndim == 2 ? pv.shape[0] : -1;
-    const char *fmt = pv.format ? pv.format : "B";
-    if (fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@')
-        fmt++;
-    if (n < 0 || pv.shape[1] != 3 || strcmp(fmt, "f") != 0 || pv.itemsize != 4 || !PyBuffer_IsContiguous(&pv, 'C')) {
-        PyBuffer_Release(&pv);
-        PyErr_SetString(PyExc_ValueError, "points must be a C-contiguous float32 array of shape (n, 3)");
-        return NULL;
-    }
     if (get_float_buffer(est_o, "estimate", n, 0, 0, &ev)) {
         PyBuffer_Release(&pv);
         return NULL;
@@ -888,10 +891,11 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
         PyBuffer_Release(&ev);
         return NULL;
     }
-    int avx2 = isa == UB_ISA_AVX2 || (isa == UB_ISA_AUTO && ub_cpu_has_avx2_fma());
     Py_BEGIN_ALLOW_THREADS
+    unsigned fp = ub_fp_enter();
     if (n > 0)
         (avx2 ? ub_estimate_avx2 : ub_estimate_portable)(&obj, pv.buf, (size_t)n, ev.buf, iv.buf);
+    ub_fp_leave(fp);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&pv);
     PyBuffer_Release(&ev);
@@ -909,30 +913,16 @@ static PyObject *py_normals(PyObject *self, PyObject *args, PyObject *kwargs)
     if (!obj)
         return PyErr_NoMemory();
     PyObject *result = NULL;
-    int isa = UB_ISA_AUTO, have_p = 0, have_t = 0, have_n = 0;
+    int avx2, have_p = 0, have_t = 0, have_n = 0;
     Py_buffer pv, tv, nv;
     if (parse_object(obj_o, "object", obj))
         goto out;
-    if (simd_o && get_choice(simd_o, "simd", isa_names, &isa))
+    if ((avx2 = get_simd(simd_o)) < 0)
         goto out;
-    if (isa == UB_ISA_AVX2 && !ub_cpu_has_avx2_fma()) {
-        PyErr_SetString(PyExc_ValueError, "simd='avx2' requested but this CPU lacks AVX2/FMA");
+    Py_ssize_t n = get_points(pts_o, &pv);
+    if (n < 0)
         goto out;
-    }
-    if (PyObject_GetBuffer(pts_o, &pv, PyBUF_RECORDS_RO) != 0) {
-        PyErr_Clear();
-        PyErr_SetString(PyExc_TypeError, "points must be a float32 array of shape (n, 3)");
-        goto out;
-    }
     have_p = 1;
-    Py_ssize_t n = pv.ndim == 2 ? pv.shape[0] : -1;
-    const char *fmt = pv.format ? pv.format : "B";
-    if (fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@')
-        fmt++;
-    if (n < 0 || pv.shape[1] != 3 || strcmp(fmt, "f") != 0 || pv.itemsize != 4 || !PyBuffer_IsContiguous(&pv, 'C')) {
-        PyErr_SetString(PyExc_ValueError, "points must be a C-contiguous float32 array of shape (n, 3)");
-        goto out;
-    }
     if (get_float_buffer(t_o, "t", n, 0, 0, &tv))
         goto out;
     have_t = 1;
@@ -940,13 +930,12 @@ static PyObject *py_normals(PyObject *self, PyObject *args, PyObject *kwargs)
     if (get_float_buffer(n_o, "normals", n, 3, 1, &nv))
         goto out;
     have_n = 1;
-    {
-        int avx2 = isa == UB_ISA_AVX2 || (isa == UB_ISA_AUTO && ub_cpu_has_avx2_fma());
-        Py_BEGIN_ALLOW_THREADS
-        if (n > 0)
-            (avx2 ? ub_normals_avx2 : ub_normals_portable)(obj, pv.buf, tv.buf, (size_t)n, nv.buf);
-        Py_END_ALLOW_THREADS
-    }
+    Py_BEGIN_ALLOW_THREADS
+    unsigned fp = ub_fp_enter();
+    if (n > 0)
+        (avx2 ? ub_normals_avx2 : ub_normals_portable)(obj, pv.buf, tv.buf, (size_t)n, nv.buf);
+    ub_fp_leave(fp);
+    Py_END_ALLOW_THREADS
     result = Py_None;
     Py_INCREF(result);
 out:
@@ -1004,7 +993,8 @@ static PyObject *py_cpu_info(PyObject *self, PyObject *noargs)
 static PyMethodDef methods[] = {
     {"render", (PyCFunction)(void (*)(void))py_render, METH_VARARGS | METH_KEYWORDS,
      "render(camera, objects, passes, *, window=None, threads=0, tile_size=32, simd='auto', progress=None, "
-     "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None) -> stats dict"},
+     "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None) -> stats dict. After a cancel "
+     "(stats['cancelled']) the passes are partial: with several samples, undivided sums of the samples done"},
     {"normals", (PyCFunction)(void (*)(void))py_normals, METH_VARARGS | METH_KEYWORDS,
      "normals(object, points, t, normals, *, simd='auto'): object-space unit normals at object-space points "
      "by the object's normal_method (zbuffer: the distance gradient), gradient step alpha * t**delta"},

@@ -20,6 +20,36 @@ int ub_cpu_has_avx2_fma(void)
 #endif
 }
 
+const char *ub_resolve_isa(ub_isa isa, int *use_avx2)
+{
+    int has = ub_cpu_has_avx2_fma();
+    *use_avx2 = isa == UB_ISA_AVX2 || (isa == UB_ISA_AUTO && has);
+    return isa == UB_ISA_AVX2 && !has ? "simd='avx2' requested but this CPU lacks AVX2/FMA" : NULL;
+}
+
+unsigned ub_fp_enter(void)
+{
+#if defined(__x86_64__) || defined(_M_X64)
+    /* Same floating-point environment for every kernel call, whatever the caller's: round to
+     * nearest, denormals flushed (FTZ | DAZ), exceptions masked. Part of what makes pixels
+     * independent of the thread that computes them. */
+    unsigned previous = _mm_getcsr();
+    _mm_setcsr(0x1f80 | 0x8040);
+    return previous;
+#else
+    return 0;
+#endif
+}
+
+void ub_fp_leave(unsigned previous)
+{
+#if defined(__x86_64__) || defined(_M_X64)
+    _mm_setcsr(previous);
+#else
+    (void)previous;
+#endif
+}
+
 int ub_cpu_count(void)
 {
     long n = sysconf(_SC_NPROCESSORS_ONLN);
@@ -51,12 +81,8 @@ static void *worker_main(void *arg)
 {
     ub_worker *w = arg;
     ub_job *job = w->job;
-#if defined(__x86_64__) || defined(_M_X64)
-    /* Same floating-point environment in every worker, whatever the caller's: round to nearest,
-     * denormals flushed (FTZ | DAZ), exceptions masked. Part of what makes pixels independent of
-     * the thread that computes them. */
-    _mm_setcsr(0x1f80 | 0x8040);
-#endif
+    /* Restored on exit: with no thread available this runs on the caller's (Blender's) thread. */
+    unsigned fp = ub_fp_enter();
     for (;;) {
         if (__atomic_load_n(job->scene->cancel, __ATOMIC_RELAXED))
             break;
@@ -69,6 +95,7 @@ static void *worker_main(void *arg)
         job->kernel(job->scene, job->phase, job->sample, tx, ty, tx1, ty1, &job->per_thread[w->index]);
         __atomic_fetch_add(&job->tiles_done, 1, __ATOMIC_RELEASE);
     }
+    ub_fp_leave(fp);
     pthread_mutex_lock(&job->lock);
     job->workers_running--;
     pthread_cond_signal(&job->finished);
@@ -155,9 +182,10 @@ static int run_job(ub_job *job, const ub_render_options *opt, int threads, ub_wo
 const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub_render_stats *stats)
 {
     memset(stats, 0, sizeof *stats);
-    int use_avx2 = opt->isa == UB_ISA_AVX2 || (opt->isa == UB_ISA_AUTO && ub_cpu_has_avx2_fma());
-    if (opt->isa == UB_ISA_AVX2 && !ub_cpu_has_avx2_fma())
-        return "simd='avx2' requested but this CPU lacks AVX2/FMA";
+    int use_avx2;
+    const char *isa_error = ub_resolve_isa(opt->isa, &use_avx2);
+    if (isa_error)
+        return isa_error;
     const ub_film *film = scene_in->film;
     const ub_camera *cam = scene_in->camera;
     /* The hit buffer: the window plus a one-pixel apron inside the image. */

@@ -24,6 +24,12 @@ typedef struct {
 } ub_render_stats;
 
 int ub_cpu_count(void);
+/* The ISA of `isa` on this CPU (*use_avx2); NULL, or an error message if AVX2 is forced but missing. */
+const char *ub_resolve_isa(ub_isa isa, int *use_avx2);
+/* Enter the kernels' floating-point environment on this thread (round to nearest, denormals
+ * flushed, exceptions masked); returns the previous one for ub_fp_leave. */
+unsigned ub_fp_enter(void);
+void ub_fp_leave(unsigned previous);
 /* Returns NULL on success or an error message (nothing rendered). */
 const char *ub_render(const ub_scene *scene, const ub_render_options *opt, ub_render_stats *stats);
 #endif

@@ -110,10 +110,8 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
         }
     for (int i = 0; i < 3; i++) {
         for (int j = 0; j < 3; j++) {
-            obj->object_to_world[i][j] = lin[i][j];
             obj->world_to_object[i][j] = inv[i][j];
         }
-        obj->object_to_world[i][3] = m[i][3];
         obj->world_to_object[i][3] = -(inv[i][0] * m[0][3] + inv[i][1] * m[1][3] + inv[i][2] * m[2][3]);
     }
     double ata[3][3];

@@ -67,9 +67,8 @@ typedef struct {
      * rotation of eq. 5-6 already folded in (see scene.c). Columns of slice_basis are orthonormal. */
     double slice_origin[4];
     double slice_basis[4][3];
-    /* World -> object (affine 3x4) and object -> world (for normals and positions). */
+    /* World -> object (affine 3x4); normals transform with its transpose. */
     double world_to_object[3][4];
-    double object_to_world[3][4];
     /* Smallest singular value of the object->world linear part: a distance d in object space
      * is at least d * sigma_min in world space, so steps scaled by it never overshoot even
      * under non-uniform scale. */
@@ -215,14 +214,11 @@ void ub_render_tile_portable(const ub_scene *, int, int, int, int, int, int, ub_
 /* Normals at object-space points with the object's own method (the Z-buffer method falls back
  * to the distance gradient), for tests: n points xyz, path lengths t (for alpha * t^delta),
  * writes object-space unit normals. */
-typedef void (*ub_normal_kernel)(const ub_object *obj, const float *xyz, const float *t, size_t n, float *normals);
 void ub_normals_avx2(const ub_object *, const float *, const float *, size_t, float *);
 void ub_normals_portable(const ub_object *, const float *, const float *, size_t, float *);
 
 /* Distance estimate and escape count at object-space points (the kernels' own arithmetic),
  * for tests: n points, xyz interleaved; writes estimate (object units) and iterations. */
-typedef void (*ub_estimate_kernel)(const ub_object *obj, const float *xyz, size_t n,
-                                   float *estimate, float *iterations);
 void ub_estimate_avx2(const ub_object *, const float *, size_t, float *, float *);
 void ub_estimate_portable(const ub_object *, const float *, size_t, float *, float *);
 

@@ -9,17 +9,9 @@ static vf UB_FN(scene_distance)(const ub_scene *sc, const UB_FN(ub_de_params) *d
         const ub_object *o = &sc->objects[k];
         if (o->bound_radius < 0.0)
             continue;
-        float q[4][UB_LANES];
-        for (int l = 0; l < UB_LANES; l++) {
-            double wp[3] = {p[0][l], p[1][l], p[2][l]}, op[3];
-            float ql[4];
-            UB_FN(world_to_object_point)(o, wp, op);
-            UB_FN(to_quaternion)(o, op, ql);
-            for (int c = 0; c < 4; c++)
-                q[c][l] = ql[c];
-        }
-        vf d, it;
-        UB_FN(de)(&dps[k], v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &d, &it);
+        vf q[4], d, it;
+        UB_FN(quaternion_lanes)(o, p, q);
+        UB_FN(de)(&dps[k], q[0], q[1], q[2], q[3], &d, &it);
         best = v_min(v_mul(d, v_set1((float)o->sigma_min)), best);
     }
     return best;

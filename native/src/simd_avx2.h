@@ -10,8 +10,6 @@
 typedef __m256 vf;   /* 8 floats */
 typedef __m256 vm;   /* 8 lane masks: all bits set = true */
 
-#define V_ISA_NAME "avx2"
-
 static inline vf v_set1(float x) { return _mm256_set1_ps(x); }
 static inline vf v_load(const float *p) { return _mm256_loadu_ps(p); }
 static inline void v_store(float *p, vf a) { _mm256_storeu_ps(p, a); }
@@ -23,8 +21,6 @@ static inline vf v_sqrt(vf a) { return _mm256_sqrt_ps(a); }
 /* a*b + c and a*b - c with a single rounding. */
 static inline vf v_fma(vf a, vf b, vf c) { return _mm256_fmadd_ps(a, b, c); }
 static inline vf v_fms(vf a, vf b, vf c) { return _mm256_fmsub_ps(a, b, c); }
-/* -(a*b) + c */
-static inline vf v_fnma(vf a, vf b, vf c) { return _mm256_fnmadd_ps(a, b, c); }
 /* min(a, b) = a < b ? a : b and max(a, b) = a > b ? a : b, NaN-semantics included. */
 static inline vf v_min(vf a, vf b) { return _mm256_min_ps(a, b); }
 static inline vf v_max(vf a, vf b) { return _mm256_max_ps(a, b); }

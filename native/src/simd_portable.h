@@ -11,7 +11,6 @@
 typedef struct { float v[8]; } vf;
 typedef struct { int32_t v[8]; } vm; /* -1 = true, 0 = false */
 
-#define V_ISA_NAME "portable"
 #define V_LOOP(i) for (int i = 0; i < 8; i++)
 
 static inline vf v_set1(float x) { vf r; V_LOOP(i) r.v[i] = x; return r; }
@@ -24,7 +23,6 @@ static inline vf v_div(vf a, vf b) { V_LOOP(i) a.v[i] = a.v[i] / b.v[i]; return 
 static inline vf v_sqrt(vf a) { V_LOOP(i) a.v[i] = sqrtf(a.v[i]); return a; }
 static inline vf v_fma(vf a, vf b, vf c) { V_LOOP(i) a.v[i] = fmaf(a.v[i], b.v[i], c.v[i]); return a; }
 static inline vf v_fms(vf a, vf b, vf c) { V_LOOP(i) a.v[i] = fmaf(a.v[i], b.v[i], -c.v[i]); return a; }
-static inline vf v_fnma(vf a, vf b, vf c) { V_LOOP(i) a.v[i] = fmaf(-a.v[i], b.v[i], c.v[i]); return a; }
 static inline vf v_min(vf a, vf b) { V_LOOP(i) a.v[i] = a.v[i] < b.v[i] ? a.v[i] : b.v[i]; return a; }
 static inline vf v_max(vf a, vf b) { V_LOOP(i) a.v[i] = a.v[i] > b.v[i] ? a.v[i] : b.v[i]; return a; }
 static inline vm v_lt(vf a, vf b) { vm r; V_LOOP(i) r.v[i] = a.v[i] < b.v[i] ? -1 : 0; return r; }

@@ -149,3 +149,17 @@ def test_estimate_bad_input():
         uc.estimate({}, np.zeros((4, 2), np.float32), np.zeros(4, np.float32), np.zeros(4, np.float32))
     with pytest.raises(ValueError, match=r"estimate must have shape \(4,\)"):
         uc.estimate({}, np.zeros((4, 3), np.float32), np.zeros(3, np.float32), np.zeros(4, np.float32))
+
+
+def test_one_dimensional_outputs_reject_empty_columns():
+    """A (n, 0) float32 array holds no bytes: estimate/iterations/t buffers of that shape were
+    once accepted as (n,) and written/read 4n bytes out of bounds (a crash at n = 4e6)."""
+    pts = np.zeros((1000, 3), np.float32)
+    empty = np.zeros((1000, 0), np.float32)
+    full = np.zeros(1000, np.float32)
+    with pytest.raises(ValueError, match=r"estimate must have shape \(1000,\)"):
+        uc.estimate({}, pts, empty, full)
+    with pytest.raises(ValueError, match=r"iterations must have shape \(1000,\)"):
+        uc.estimate({}, pts, full, empty)
+    with pytest.raises(ValueError, match=r"t must have shape \(1000,\)"):
+        uc.normals({}, pts, empty, np.zeros((1000, 3), np.float32))
