@@ -1,5 +1,6 @@
 # Unbound: build, test, demo. Everything installs itself into .venv (Python 3.11).
-PYTHON ?= python3
+# bpy 4.2 has wheels for Python 3.11 only: prefer python3.11 where both exist.
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 PY := $(VENV)/bin/python
 WHEEL_GLOB := dist/unbound_core-*-cp311-abi3-*.whl
@@ -27,7 +28,7 @@ dist/.wheel-stamp: $(VENV)/.stamp $(NATIVE_SOURCES)
 
 # The Blender extension zip: addon/ + manifest + wheel, built and validated by Blender's tool.
 extension: dist/.extension-stamp
-dist/.extension-stamp: dist/.wheel-stamp blender_manifest.toml $(wildcard addon/*.py) tools/build_extension.py
+dist/.extension-stamp: dist/.wheel-stamp blender_manifest.toml $(shell find addon -name '*.py') tools/build_extension.py
 	$(PY) tools/build_extension.py
 	touch $@
 

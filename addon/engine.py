@@ -4,7 +4,6 @@ The RenderEngine class (in __init__.py) only forwards its callbacks here."""
 import math
 import time
 
-import bpy
 import numpy as np
 from mathutils import Vector
 
@@ -41,17 +40,32 @@ def camera_description(engine, depsgraph, width, height):
                 width=width, height=height)
 
 
-def fractal_objects(depsgraph):
-    """Native dicts for every visible fractal object (instances included), in a stable order."""
+def scene_instances(depsgraph, accept, describe):
+    """describe(object, matrix_world) of every visible instance (instances included) of the objects
+    `accept` takes, None results dropped, in a stable order (name, instance flag, random id): the
+    same on every machine."""
     found = []
     for inst in depsgraph.object_instances:
         ob = inst.object
-        if ob.type != 'EMPTY' or not ob.unbound.is_fractal:
-            continue
-        key = (ob.name, inst.is_instance, inst.random_id)
-        found.append((key, properties.native_parameters(ob.unbound, inst.matrix_world)))
+        if accept(ob):
+            desc = describe(ob, inst.matrix_world)
+            if desc is not None:
+                found.append(((ob.name, inst.is_instance, inst.random_id), desc))
     found.sort(key=lambda item: item[0])
-    return [params for _, params in found]
+    return [desc for _, desc in found]
+
+
+def fractal_objects(depsgraph):
+    """Native dicts for every visible fractal object (instances included), in a stable order.
+    The parameters (colour ramp included) are derived once per object, the matrix per instance."""
+    params = {}
+
+    def describe(ob, matrix):
+        if ob.name not in params:
+            params[ob.name] = properties.native_parameters(ob.unbound)
+        return dict(params[ob.name], matrix=[list(row) for row in matrix])
+
+    return scene_instances(depsgraph, utils.is_fractal, describe)
 
 
 def image_window(scene):
@@ -137,16 +151,8 @@ def shading_description(depsgraph):
     s = scene.unbound
     lights = []
     if s.use_scene_lights:
-        found = []
-        for inst in depsgraph.object_instances:
-            ob = inst.object
-            if ob.type != 'LIGHT':
-                continue
-            desc = light_description(ob.data, inst.matrix_world)
-            if desc is not None:
-                found.append(((ob.name, inst.is_instance, inst.random_id), desc))
-        found.sort(key=lambda item: item[0])
-        lights = [d for _, d in found]
+        lights = scene_instances(depsgraph, lambda ob: ob.type == 'LIGHT',
+                                 lambda ob, matrix: light_description(ob.data, matrix))
     if len(lights) > 64:
         raise RenderError("The scene has %d lights; Unbound renders at most 64" % len(lights))
     fog_color = world_color(scene) if s.fog_use_world else tuple(s.fog_color)

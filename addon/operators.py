@@ -6,7 +6,7 @@ import bpy
 from bl_operators.presets import AddPresetBase
 
 from . import passes, utils
-from .properties import bounding_radius
+from .properties import UnboundObjectSettings, UnboundSceneSettings, bounding_radius
 
 # Presets shipped with the extension; the user's own (Add Preset) go where Blender keeps presets,
 # scripts/presets/unbound/fractal, and the menu lists both.
@@ -34,15 +34,12 @@ class UNBOUND_OT_fractal_preset_add(AddPresetBase, bpy.types.Operator):
     preset_menu = "UNBOUND_MT_fractal_presets"
     preset_subdir = PRESET_SUBDIR
     preset_defines = ["ob = bpy.context.object", "scene = bpy.context.scene"]
-    preset_values = ["ob.unbound." + name for name in (
-        "kind", "mu", "theta", "slice_offset", "slice_rotation", "max_iterations", "bailout", "threshold_mode",
-        "detail", "epsilon", "step_factor", "max_step", "max_steps", "bisection_steps", "color", "normal_method",
-        "normal_alpha", "normal_delta", "reflectivity", "color_mode", "ramp_scale", "ramp_offset")] + [
-        "scene.unbound." + name for name in (
-            "samples", "axle_light", "use_scene_lights", "ambient", "shadows", "ao_strength", "ao_distance",
-            "ao_samples", "reflection_depth", "fog_density", "fog_use_world", "fog_color", "glow_strength",
-            "glow_color", "use_sea", "sea_height", "sea_wavelength", "sea_amplitude", "sea_color",
-            "sea_reflectivity")]
+    # Every fractal and scene setting, read from the PropertyGroups so a new one is never left out;
+    # not the ramp texture (a datablock) nor machine-specific render settings.
+    preset_values = (["ob.unbound." + name for name in UnboundObjectSettings.__annotations__
+                      if name not in {"is_fractal", "color_ramp_texture"}]
+                     + ["scene.unbound." + name for name in UnboundSceneSettings.__annotations__
+                        if name not in {"tile_size", "simd"}])
 
     @classmethod
     def poll(cls, context):

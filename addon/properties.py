@@ -7,7 +7,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty,
                        PointerProperty)
 
-from . import passes
+from . import passes, utils
 
 FRACTAL_KINDS = [
     ('QUATERNION_JULIA', "Quaternion Julia", "3-D slice of the Julia set of z^2 + mu over the quaternions", 0),
@@ -50,7 +50,7 @@ def bounding_radius(mu):
 
 
 def _sync_display_size(ob):
-    if ob.type == 'EMPTY' and ob.unbound.is_fractal and not ob.library:
+    if utils.is_fractal(ob) and not ob.library:
         radius = bounding_radius(ob.unbound.mu)
         if abs(ob.empty_display_size - radius) > 1e-6:
             ob.empty_display_size = radius
@@ -206,13 +206,13 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
                        items=SIMD_MODES, default='AUTO')
 
 
-def native_parameters(props, matrix):
-    """The native core's object dict for fractal settings `props` at world matrix `matrix`.
+def native_parameters(props):
+    """The native core's object dict for fractal settings `props` (without the world matrix).
     (A module function: a method on a registered PropertyGroup makes bpy 4.2 crash at exit.)"""
     basis, origin = slice_frame(props.slice_offset, props.slice_rotation)
     return dict(
         kind="quaternion_julia", mu=tuple(props.mu), theta=props.theta, slice_basis=basis,
-        slice_origin=origin, matrix=[list(row) for row in matrix], max_iterations=props.max_iterations,
+        slice_origin=origin, max_iterations=props.max_iterations,
         bailout=props.bailout, epsilon_mode=props.threshold_mode.lower(), epsilon=props.epsilon,
         detail=props.detail, step_factor=props.step_factor, max_step=props.max_step, max_steps=props.max_steps,
         bisection_steps=props.bisection_steps, color=tuple(props.color),

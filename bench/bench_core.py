@@ -26,10 +26,8 @@ import math
 import os
 import platform
 import statistics
-import struct
 import sys
 import time
-import zlib
 from pathlib import Path
 
 import numpy as np
@@ -44,10 +42,7 @@ sys.path.insert(0, str(REPO / "bench"))
 import unbound_core as uc  # noqa: E402
 from reference import qjulia64  # noqa: E402
 
-try:
-    import OpenImageIO as oiio
-except ImportError:  # the tiny zlib PNG writer/reader below is used instead
-    oiio = None
+import OpenImageIO as oiio  # noqa: E402  (requirements-dev.txt)
 
 OBJECT = dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=16, bailout=4.0)
 EYE, TARGET, UP = (-2.0, -2.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)
@@ -68,66 +63,25 @@ def write_png(path, img):
     if img.ndim == 2:
         img = img[:, :, None]
     h, w, c = img.shape
-    if oiio is not None:
-        out = oiio.ImageOutput.create(str(path))
-        out.open(str(path), oiio.ImageSpec(w, h, c, "uint8"))
-        out.write_image(img)
-        out.close()
-        return
-
-    def chunk(tag, data):
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
-
-    color_type = {1: 0, 2: 4, 3: 2, 4: 6}[c]
-    raw = b"".join(b"\0" + img[y].tobytes() for y in range(h))
-    Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, color_type, 0, 0, 0))
-                           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(w, h, c, "uint8"))
+    out.write_image(img)
+    out.close()
 
 
 def read_png(path):
-    """8-bit PNG -> uint8 (H, W, C), row 0 = top. OpenImageIO, or a minimal non-interlaced decoder."""
-    if oiio is not None:
-        buf = oiio.ImageBuf(str(path))
-        pixels = buf.get_pixels(oiio.UINT8)
-        if pixels is None or buf.has_error:
-            raise RuntimeError(f"cannot read {path}: {buf.geterror()}")
-        return np.asarray(pixels)
-    data = Path(path).read_bytes()
-    pos, idat, (w, h, depth, color_type, interlace) = 8, b"", (0, 0, 0, 0, 0)
-    while pos < len(data):
-        n, tag = struct.unpack(">I4s", data[pos:pos + 8])
-        body = data[pos + 8:pos + 8 + n]
-        if tag == b"IHDR":
-            w, h, depth, color_type, _, _, interlace = struct.unpack(">IIBBBBB", body)
-        elif tag == b"IDAT":
-            idat += body
-        pos += 12 + n
-    if depth != 8 or interlace or color_type not in (0, 2, 4, 6):
-        raise RuntimeError(f"{path}: only 8-bit non-interlaced grey/RGB(A) PNGs are supported")
-    c = {0: 1, 2: 3, 4: 2, 6: 4}[color_type]
-    rows = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(h, 1 + w * c)
-    out = np.zeros((h, w * c), np.int32)
-    prev = np.zeros(w * c, np.int32)
-    for y in range(h):
-        f, line = rows[y, 0], rows[y, 1:].astype(np.int32)
-        if f == 2:
-            line = line + prev
-        elif f in (1, 3, 4):  # Sub, Average, Paeth run along the row
-            line = line.copy()
-            for x in range(w * c):
-                a = line[x - c] if x >= c else 0
-                b, cc = prev[x], (prev[x - c] if x >= c else 0)
-                if f == 1:
-                    line[x] += a
-                elif f == 3:
-                    line[x] += (a + b) >> 1
-                else:
-                    p = a + b - cc
-                    pa, pb, pc = abs(p - a), abs(p - b), abs(p - cc)
-                    line[x] += a if pa <= pb and pa <= pc else (b if pb <= pc else cc)
-                line[x] &= 255
-        out[y] = prev = line & 255
-    return out.astype(np.uint8).reshape(h, w, c)
+    """8-bit PNG -> uint8 (H, W, C), row 0 = top."""
+    buf = oiio.ImageBuf(str(path))
+    pixels = buf.get_pixels(oiio.UINT8)
+    if pixels is None or buf.has_error:
+        raise RuntimeError(f"cannot read {path}: {buf.geterror()}")
+    return np.asarray(pixels)
+
+
+def iou(a, b):
+    """Intersection over union of two boolean masks (1 when both are empty)."""
+    union = np.sum(a | b)
+    return float(np.sum(a & b) / union) if union else 1.0
 
 
 def to_u8(linear):
@@ -268,13 +222,12 @@ def main(argv=None):
               f"{'met' if speed >= TARGET_SPEEDUP else 'NOT met'})")
         peer_mask = read_png(Path(sil["png"]).with_name(Path(sil["png"]).stem + "_alpha.png"))[..., 0] > 127
         ours = native_img["alpha"][::-1, :, 0] > 0.5
-        inter, union = np.sum(peer_mask & ours), np.sum(peer_mask | ours)
-        iou = float(inter / union) if union else 1.0
-        print(f"  silhouette IoU (Mandelbulber2 alpha vs native alpha): {iou:.4f}; coverage native "
+        sil_iou = iou(peer_mask, ours)
+        print(f"  silhouette IoU (Mandelbulber2 alpha vs native alpha): {sil_iou:.4f}; coverage native "
               f"{ours.mean():.3f}, peer {peer_mask.mean():.3f}; only native {np.sum(ours & ~peer_mask)} px, "
               f"only peer {np.sum(peer_mask & ~ours)} px")
         rep["mandelbulber2"] = dict(wall_s=c_wall, cpu_s=[c["cpu_s"] for c in C], speedup_vs_core=speed,
-                                    iou=iou, coverage_native=float(ours.mean()), coverage_peer=float(peer_mask.mean()))
+                                    iou=sil_iou, coverage_native=float(ours.mean()), coverage_peer=float(peer_mask.mean()))
         # Side by side: native | peer, and a mask difference (white both, red native only, green peer only).
         peer_rgb = read_png(out / "peer.png")[..., :3]
         write_png(out / "side_by_side.png", np.concatenate([to_u8(native_img["combined"][::-1, :, :3]), peer_rgb], 1))
@@ -284,9 +237,9 @@ def main(argv=None):
         diff[peer_mask & ~ours] = (0, 255, 0)
         write_png(out / "mask_diff.png", diff)
 
-    (out / "results.json").write_text(json.dumps(rep, indent=1))
     load = os.getloadavg()
     rep["loadavg_end"] = load
+    (out / "results.json").write_text(json.dumps(rep, indent=1))
     print(f"\nload average at the end {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} (other jobs on the machine skew all "
           f"timings; native cpu/wall near {args.threads} means its threads really ran in parallel)")
     print(f"images and results.json in {out}")

@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 import bench_core as bc  # also puts the built wheel (build/wheel) and native/ on sys.path
-from bench_core import OBJECT, REPO, camera, machine, med, parse_res, read_png, to_u8, write_png
+from bench_core import OBJECT, REPO, camera, iou, machine, med, parse_res, read_png, to_u8, write_png
 
 uc = bc.uc
 
@@ -124,11 +124,6 @@ def shadow_masks(base_u8, shadow_u8, lit_min=13):
     b, s = base_u8.astype(np.int32), shadow_u8.astype(np.int32)
     lit = b >= lit_min
     return lit, lit & (2 * s < b)
-
-
-def iou(a, b):
-    union = np.sum(a | b)
-    return float(np.sum(a & b) / union) if union else 1.0
 
 
 def main(argv=None):

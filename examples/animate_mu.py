@@ -43,8 +43,7 @@ except ImportError:
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)  # Blender's --python does not put the script's folder on the path
-from unbound_extension import ensure_extension  # noqa: E402
-ENGINE_ID = "UNBOUND"
+from unbound_extension import add_camera, ensure_extension, new_scene, script_args, set_png_format  # noqa: E402
 LOOP_FRAMES = 48      # frames per loop of mu around its path
 KEYS_PER_LOOP = 8     # keyframes per loop; Bezier curves with cyclic auto handles in between
 MU_CENTER = (-0.2, 0.8)  # the paper's mu = -0.2 + 0.8i ...
@@ -53,17 +52,6 @@ MU_K = 0.1               # ... while the k component swings by this much (change
 
 
 # -- arguments -------------------------------------------------------------------------------------
-
-def script_args(argv=None):
-    """This script's own arguments: those after `--` (Blender passes its own argv), else with the
-    bpy module everything after the script name."""
-    argv = sys.argv if argv is None else argv
-    if "--" in argv:
-        return argv[argv.index("--") + 1:]
-    if bpy.app.binary_path:  # inside Blender: the rest of argv is Blender's
-        return []
-    return argv[1:]
-
 
 def parse_args(args):
     p = argparse.ArgumentParser(prog="animate_mu.py", description=__doc__.split("\n\n")[0])
@@ -80,8 +68,6 @@ def parse_args(args):
     if a.loop < KEYS_PER_LOOP:
         p.error("--loop: at least %d frames" % KEYS_PER_LOOP)
     return a
-
-
 
 
 # -- the scene -------------------------------------------------------------------------------------
@@ -122,30 +108,9 @@ def keyframe_mu(ob, loop=LOOP_FRAMES):
 def build_scene(width=640, height=360, percentage=100, loop=LOOP_FRAMES):
     """A new empty scene: camera, world colour, an animated Quaternion Julia fractal, every pass.
     Returns (scene, fractal object)."""
-    from mathutils import Vector
-    bpy.ops.wm.read_homefile(use_empty=True)
-    scene = bpy.context.scene
-    r = scene.render
-    r.engine = ENGINE_ID
-    r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, percentage
-    r.fps = 24
-    scene.view_settings.view_transform = 'Standard'
-
-    world = bpy.data.worlds.new("Backdrop")
-    world.color = (0.018, 0.022, 0.035)
-    if world.node_tree:  # 5.x worlds always use nodes: the engine reads the Background node
-        bg = next((n for n in world.node_tree.nodes if n.type == 'BACKGROUND'), None)
-        if bg is not None:
-            bg.inputs["Color"].default_value = (*world.color, 1.0)
-            bg.inputs["Strength"].default_value = 1.0
-    scene.world = world
-
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.data.lens = 40.0
-    scene.collection.objects.link(cam)
-    cam.location = (0.6, -4.4, 2.8)
-    cam.rotation_euler = (Vector((0.0, 0.0, 0.0)) - cam.location).to_track_quat('-Z', 'Y').to_euler()
-    scene.camera = cam
+    scene = new_scene(width, height, (0.018, 0.022, 0.035), percentage)
+    scene.render.fps = 24
+    add_camera(scene, (0.6, -4.4, 2.8), (0.0, 0.0, 0.0), 40.0)
 
     bpy.ops.object.unbound_fractal_add(mu=mu_on_path(0.0), use_cursor=False)
     ob = bpy.context.object
@@ -167,10 +132,7 @@ def build_scene(width=640, height=360, percentage=100, loop=LOOP_FRAMES):
 def set_format(scene, kind):
     ims = scene.render.image_settings
     if kind == 'PNG':
-        if bpy.app.version >= (5, 0, 0):
-            ims.media_type = 'IMAGE'
-        ims.file_format = 'PNG'
-        ims.color_mode, ims.color_depth = 'RGB', '8'
+        set_png_format(scene)
     else:
         if bpy.app.version >= (5, 0, 0):
             ims.media_type = 'MULTI_LAYER_IMAGE'

@@ -42,8 +42,7 @@ except ImportError:
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)  # Blender's --python does not put the script's folder on the path
-from unbound_extension import ensure_extension  # noqa: E402
-ENGINE_ID = "UNBOUND"
+from unbound_extension import add_camera, ensure_extension, new_scene, script_args, set_png_format  # noqa: E402
 PRESET_MENU = "UNBOUND_MT_fractal_presets"
 
 # Per preset (file name without .py): the camera (location, target, focal length in mm), the sun
@@ -74,17 +73,6 @@ VIEWS = {
 
 # -- arguments -------------------------------------------------------------------------------------
 
-def script_args(argv=None):
-    """This script's own arguments: those after `--` (Blender passes its own argv), else with the
-    bpy module everything after the script name."""
-    argv = sys.argv if argv is None else argv
-    if "--" in argv:
-        return argv[argv.index("--") + 1:]
-    if bpy.app.binary_path:  # inside Blender: the rest of argv is Blender's
-        return []
-    return argv[1:]
-
-
 def parse_args(args):
     p = argparse.ArgumentParser(prog="gallery.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default=os.path.join("docs", "gallery"), help="output folder")
@@ -98,8 +86,6 @@ def parse_args(args):
     return a
 
 
-
-
 def bundled_presets(module):
     """{name: path} of the presets shipped with the extension, in file-name order."""
     folder = sys.modules[module].operators.BUNDLED_PRESETS
@@ -109,39 +95,13 @@ def bundled_presets(module):
 
 # -- the scene -------------------------------------------------------------------------------------
 
-def look_at(ob, location, target):
-    from mathutils import Vector
-    ob.location = location
-    ob.rotation_euler = (Vector(target) - Vector(location)).to_track_quat('-Z', 'Y').to_euler()
-
-
 def build_scene(preset, view, width, height):
     """A new empty scene for one preset: camera, world, sun, a fractal object with the preset
     applied. Returns (scene, fractal object)."""
     from mathutils import Vector
-    bpy.ops.wm.read_homefile(use_empty=True)
-    scene = bpy.context.scene
-    r = scene.render
-    r.engine = ENGINE_ID
-    r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
-    scene.view_settings.view_transform = 'Standard'  # the PNG holds the rendered colours (sRGB)
-
-    world = bpy.data.worlds.new("Backdrop")
-    world.color = view["world"]
-    if world.node_tree:  # 5.x worlds always use nodes: the engine reads the Background node
-        bg = next((n for n in world.node_tree.nodes if n.type == 'BACKGROUND'), None)
-        if bg is not None:
-            bg.inputs["Color"].default_value = (*world.color, 1.0)
-            bg.inputs["Strength"].default_value = 1.0
-    scene.world = world
-
-    location, target, lens = view["camera"]
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.data.lens = lens
+    scene = new_scene(width, height, view["world"])
+    cam = add_camera(scene, *view["camera"])
     cam.data.clip_start = 0.01
-    scene.collection.objects.link(cam)
-    look_at(cam, location, target)
-    scene.camera = cam
 
     if view["sun"] is not None:
         direction, strength = view["sun"]
@@ -163,11 +123,8 @@ def build_scene(preset, view, width, height):
 
 def render_png(scene, path):
     """F12 through Blender's pipeline, saved as an 8-bit RGB PNG."""
-    ims = scene.render.image_settings
-    if bpy.app.version >= (5, 0, 0):
-        ims.media_type = 'IMAGE'
-    ims.file_format = 'PNG'
-    ims.color_mode, ims.color_depth, ims.compression = 'RGB', '8', 100
+    set_png_format(scene)
+    scene.render.image_settings.compression = 100
     scene.render.filepath = path
     scene.render.use_file_extension = False
     if os.path.isfile(path):  # so that a file from an earlier run cannot pass for this one's

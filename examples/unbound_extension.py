@@ -1,5 +1,6 @@
-"""What the examples share: find the enabled Unbound extension or install the built zip, under
-the PyPI bpy module and inside Blender alike (`blender -b --python examples/<name>.py`)."""
+"""What the examples share, under the PyPI bpy module and inside Blender alike (`blender -b
+--python examples/<name>.py`): their own arguments, the Unbound extension (enabled, or installed
+from the built zip), and a new scene with Unbound, a world colour and a camera."""
 import atexit
 import glob
 import os
@@ -8,6 +9,18 @@ import sys
 import bpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+ENGINE_ID = "UNBOUND"
+
+
+def script_args(argv=None):
+    """The script's own arguments: those after `--` (Blender passes its own argv), else with the
+    bpy module everything after the script name."""
+    argv = sys.argv if argv is None else argv
+    if "--" in argv:
+        return argv[argv.index("--") + 1:]
+    if bpy.app.binary_path:  # inside Blender: the rest of argv is Blender's
+        return []
+    return argv[1:]
 
 
 def enabled_unbound():
@@ -46,3 +59,44 @@ def _release_addon(module):
     import addon_utils
     if module in bpy.context.preferences.addons:
         addon_utils.disable(module, default_set=False)
+
+
+def new_scene(width, height, world_color, percentage=100):
+    """An empty scene rendered by Unbound at width x height, with the Standard view transform (the
+    PNGs hold the rendered colours) and a world of one colour (the background)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    r = scene.render
+    r.engine = ENGINE_ID
+    r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, percentage
+    scene.view_settings.view_transform = 'Standard'
+    world = bpy.data.worlds.new("Backdrop")
+    world.color = world_color
+    if world.node_tree:  # 5.x worlds always use nodes: the engine reads the Background node
+        bg = next((n for n in world.node_tree.nodes if n.type == 'BACKGROUND'), None)
+        if bg is not None:
+            bg.inputs["Color"].default_value = (*world.color, 1.0)
+            bg.inputs["Strength"].default_value = 1.0
+    scene.world = world
+    return scene
+
+
+def add_camera(scene, location, target, lens):
+    """The scene's camera at `location`, looking at `target`, with a `lens` mm focal length."""
+    from mathutils import Vector
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.lens = lens
+    scene.collection.objects.link(cam)
+    cam.location = location
+    cam.rotation_euler = (Vector(target) - Vector(location)).to_track_quat('-Z', 'Y').to_euler()
+    scene.camera = cam
+    return cam
+
+
+def set_png_format(scene):
+    """8-bit RGB PNG output (4.x and 5.x image settings alike)."""
+    ims = scene.render.image_settings
+    if bpy.app.version >= (5, 0, 0):
+        ims.media_type = 'IMAGE'
+    ims.file_format = 'PNG'
+    ims.color_mode, ims.color_depth = 'RGB', '8'

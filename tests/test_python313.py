@@ -12,15 +12,21 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="the trixie chroot needs root (CI runs as root)")
 
 
-def chroot(script, timeout=1200):
+@pytest.fixture(scope="module")
+def chroot():
+    """Runs a shell script in the Python 3.13 / bpy 5.2 chroot, set up once for the module."""
     setup = subprocess.run(["sh", "tools/py313.sh", "setup", "--bpy"], cwd=ROOT, capture_output=True, text=True,
                            timeout=1500)
     assert setup.returncode == 0, setup.stderr[-3000:]
+    return run_in_chroot
+
+
+def run_in_chroot(script, timeout=1200):
     return subprocess.run(["sh", "tools/py313.sh", "run", "sh", "-c", script], cwd=ROOT, capture_output=True,
                           text=True, timeout=timeout)
 
 
-def test_native_suite_under_python313():
+def test_native_suite_under_python313(chroot):
     wheels = sorted(glob.glob(str(ROOT / "dist" / "unbound_core-*-cp311-abi3-*.whl")))
     assert wheels, "build the wheel first (make wheel)"
     wheel = os.path.relpath(wheels[-1], ROOT)
@@ -34,7 +40,7 @@ def test_native_suite_under_python313():
     assert " passed" in run.stdout and "failed" not in run.stdout
 
 
-def test_engine_suite_under_bpy52():
+def test_engine_suite_under_bpy52(chroot):
     run = chroot("/opt/venv/bin/python -c 'import bpy; print(\"bpy\", bpy.app.version_string)' && "
                  "/opt/venv/bin/python -m pytest -q -p no:cacheprovider tests/blender/test_engine.py "
                  "tests/blender/test_shading_blender.py")

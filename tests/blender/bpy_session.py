@@ -10,12 +10,10 @@ import bpy
 
 from exr import read_exr  # noqa: F401  (re-exported for the test scripts)
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
 MODULE = "bl_ext.user_default.unbound"
 
 
-def install_extension(zip_path=None):
-    zip_path = zip_path or next((ROOT / "dist").glob("unbound-*.zip"))
+def install_extension(zip_path):
     result = bpy.ops.extensions.package_install_files(filepath=str(zip_path), repo='user_default',
                                                       enable_on_install=True)
     assert result == {'FINISHED'}, result

@@ -8,15 +8,9 @@ import sys
 import textwrap
 
 import pytest
+from exr import extension_zip
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
 HERE = pathlib.Path(__file__).resolve().parent
-
-
-def extension_zip():
-    zips = sorted((ROOT / "dist").glob("unbound-*.zip"))
-    assert zips, "build the extension first: make extension"
-    return zips[-1]
 
 
 @pytest.fixture

@@ -1,6 +1,25 @@
-"""Reading OpenEXR files in tests (no bpy needed): OpenImageIO from pip, since bpy 4.2 bundles no
-Python binding of it."""
+"""Files the Blender tests read in the pytest process (no bpy needed): OpenEXR and PNG images
+through OpenImageIO from pip (bpy 4.2 bundles no Python binding of it), and the built extension."""
+import pathlib
+
 import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def extension_zip():
+    """The extension zip `make extension` built."""
+    zips = sorted((ROOT / "dist").glob("unbound-*.zip"))
+    assert zips, "build the extension first: make extension"
+    return zips[-1]
+
+
+def read_png(path):
+    """8-bit image -> uint8 (H, W, C), row 0 at the top."""
+    import OpenImageIO as oiio
+    buf = oiio.ImageBuf(str(path))
+    assert not buf.has_error, buf.geterror()
+    return buf.get_pixels(oiio.UINT8)
 
 
 def read_exr(path):

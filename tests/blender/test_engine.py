@@ -1,7 +1,6 @@
 """The Unbound render engine inside Blender (bpy 4.2, the minimum): passes on the Render Layers
 node and in multilayer EXR, the writer against the native core, keyframes and drivers, unions,
 background and film, threads, errors reported instead of raised."""
-import numpy as np
 import pytest
 
 

@@ -12,6 +12,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from exr import extension_zip, read_png
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 WORK = ROOT / "build" / "real_blender"            # inside the repo: the chroot sees it at /src/build/...
@@ -46,20 +47,12 @@ def results(out, tag):
     return [json.loads(line[len(tag) + 1:]) for line in out.splitlines() if line.startswith(tag + " ")]
 
 
-def pixels(path):
-    import OpenImageIO as oiio
-    buf = oiio.ImageBuf(str(path))
-    assert not buf.has_error, buf.geterror()
-    return buf.get_pixels(oiio.UINT8)   # (H, W, C), row 0 at the top
-
-
 @pytest.fixture(scope="module")
 def zip_path():
-    zips = sorted((ROOT / "dist").glob("unbound-*.zip"))
-    assert zips, "build the extension first: make extension"
+    zip_file = extension_zip()
     rc, out = tool("setup", timeout=900)
     assert rc == 0, out[-4000:]
-    return zips[-1]
+    return zip_file
 
 
 @pytest.fixture(scope="module")
@@ -94,7 +87,7 @@ def test_background_render(user_dir):
     assert r["add_op"] == ["FINISHED"] and r["fractal"] and r["render_op"] == ["FINISHED"], r
     assert r["stats"]["rays"] == 96 * 72 and not r["stats"]["cancelled"], r
     assert still.stat().st_size > 0
-    px = pixels(still)
+    px = read_png(still)
     assert px.shape == (72, 96, 4)
     coverage = float((px[..., 3] > 0).mean())   # transparent film: alpha marks the fractal
     assert 0.05 < coverage < 0.99, coverage
@@ -130,7 +123,7 @@ def test_gui_panels_screenshots(user_dir):
         e = shots[name]
         assert e["rc"] == 0, e
         assert e["tab"] == tab and set(e["panels"]) == panels, e
-        px = pixels(SHOTS / name)
+        px = read_png(SHOTS / name)
         assert px.shape[:2] == (h, w), px.shape
         assert px[..., :3].std() > 10, "%s is blank" % name
         # The Properties editor (bottom right in the Layout workspace) is not blank either.

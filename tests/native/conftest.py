@@ -2,7 +2,6 @@
 
 The native module under test is the installed wheel (`unbound_core`); the float64 references
 come from reference/ at the repository root."""
-import math
 import pathlib
 import sys
 

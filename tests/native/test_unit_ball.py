@@ -16,7 +16,6 @@ def test_unit_ball_depth_normal_position(mode, ortho):
     passes, stats = render(cam, [obj])
     origin, direction, forward = rays_float64(cam)
     t, closest = sphere_hits(origin, direction)
-    hit = ~np.isnan(t)
     footprint = 3.0 / 72 if ortho else 0.7 / 72 * 4.0  # generous pixel size near the ball
     # Coverage: exact away from the silhouette (within one pixel footprint of the limb either
     # answer is acceptable: the threshold thickens the set by up to eps).
