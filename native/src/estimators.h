@@ -27,6 +27,8 @@ static inline vf UB_FN(v_log)(vf x)
 
 /* Constants of one fractal object in kernel precision, derived once per tile. */
 typedef struct {
+    const ub_object *obj;
+    ub_fractal_kind kind;
     vf mu[4];
     vf bail2;
     int max_iterations;
@@ -36,6 +38,8 @@ typedef struct {
 
 static inline void UB_FN(de_params)(const ub_object *o, const ub_camera *cam, UB_FN(ub_de_params) *p)
 {
+    p->obj = o;
+    p->kind = o->kind;
     for (int i = 0; i < 4; i++)
         p->mu[i] = v_set1((float)o->mu[i]);
     p->bail2 = v_set1((float)(o->bailout * o->bailout));
@@ -59,14 +63,21 @@ typedef struct {
     vf normal[3];  /* object-space gradient of |z_n|^2: z_n . dz_n/dx_axis (unnormalised) */
 } UB_FN(ub_de_extra);
 
-/* The same iteration as de(), with the orbit trap, the potential G() of section 4.1.2 and the
- * Jacobian of f^n along the three slice axes. d(z q)/dx = z dq + dq z for f = z^2, and for
- * z = (a, v), h = (p, w): zh + hz = (2(ap - v.w), 2(aw + pv)) (the cross products cancel). */
-static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, const ub_object *o, vf a, vf b, vf c, vf d,
-                                 const int want, vf *dist, vf *iters, UB_FN(ub_de_extra) *x)
+/* The quaternion iteration of section 3, for the Julia sets (z0 = the point, mu fixed) and,
+ * with `mandel`, the Mandelbrot slices (z0 = mu = the point: the orbit from z1 = mu of the
+ * critical point 0). Besides the distance estimate it yields the orbit trap, the potential G()
+ * of section 4.1.2 and the Jacobian of f^n along the three slice axes. d(z q)/dx = z dq + dq z
+ * for f = z^2 (plus dmu/dx for Mandelbrot), and for z = (a, v), h = (p, w):
+ * zh + hz = (2(ap - v.w), 2(aw + pv)) (the cross products cancel). */
+static inline void UB_FN(de_quaternion)(const UB_FN(ub_de_params) *p, const int mandel, vf a, vf b, vf c, vf d,
+                                        const int want, vf *dist, vf *iters, UB_FN(ub_de_extra) *x)
 {
+    const ub_object *o = p->obj;
+    const vf mu[4] = {mandel ? a : p->mu[0], mandel ? b : p->mu[1], mandel ? c : p->mu[2], mandel ? d : p->mu[3]};
     vf r2 = v_fma(a, a, v_fma(b, b, v_fma(c, c, v_mul(d, d))));
-    vf dr2 = v_set1(1.0f);
+    /* Julia: |f^n'|^2 by |f'| <- 2|z||f'| (squared, no root per iteration). Mandelbrot: the
+     * derivative in mu, |f'| <- 2|z||f'| + 1 (Milnor's estimate), which needs |z| itself. */
+    vf dr2 = v_set1(1.0f), dm = v_set1(1.0f);
     vf n = v_set1(0.0f);
     vf trap = r2, gscale = v_set1(1.0f);
     vf j[3][4];
@@ -86,6 +97,12 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, const ub_object *
                 vf n1 = v_mul(two, v_fma(a, p1, v_mul(p0, b)));
                 vf n2 = v_mul(two, v_fma(a, p2, v_mul(p0, c)));
                 vf n3 = v_mul(two, v_fma(a, p3, v_mul(p0, d)));
+                if (mandel) {
+                    n0 = v_add(n0, v_set1((float)o->slice_basis[0][k]));
+                    n1 = v_add(n1, v_set1((float)o->slice_basis[1][k]));
+                    n2 = v_add(n2, v_set1((float)o->slice_basis[2][k]));
+                    n3 = v_add(n3, v_set1((float)o->slice_basis[3][k]));
+                }
                 j[k][0] = v_select(active, n0, p0);
                 j[k][1] = v_select(active, n1, p1);
                 j[k][2] = v_select(active, n2, p2);
@@ -102,17 +119,19 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, const ub_object *
             }
         }
         vf a2 = v_add(a, a);
-        vf na = v_sub(v_fma(a, a, p->mu[0]), v_fma(b, b, v_fma(c, c, v_mul(d, d))));
-        vf nb = v_fma(a2, b, p->mu[1]);
-        vf nc = v_fma(a2, c, p->mu[2]);
-        vf nd = v_fma(a2, d, p->mu[3]);
-        vf ndr2 = v_mul(dr2, v_mul(four, r2));
+        vf na = v_sub(v_fma(a, a, mu[0]), v_fma(b, b, v_fma(c, c, v_mul(d, d))));
+        vf nb = v_fma(a2, b, mu[1]);
+        vf nc = v_fma(a2, c, mu[2]);
+        vf nd = v_fma(a2, d, mu[3]);
+        if (mandel)
+            dm = v_select(active, v_fma(v_mul(two, v_sqrt(r2)), dm, v_set1(1.0f)), dm);
+        else
+            dr2 = v_select(active, v_mul(dr2, v_mul(four, r2)), dr2);
         vf nr2 = v_fma(na, na, v_fma(nb, nb, v_fma(nc, nc, v_mul(nd, nd))));
         a = v_select(active, na, a);
         b = v_select(active, nb, b);
         c = v_select(active, nc, c);
         d = v_select(active, nd, d);
-        dr2 = v_select(active, ndr2, dr2);
         r2 = v_select(active, nr2, r2);
         if (want & UB_WANT_TRAP)
             trap = v_select(active, v_min(trap, nr2), trap);
@@ -125,6 +144,8 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, const ub_object *
     }
     /* A lane's r2 froze at its escape, the only way past the bailout (max_iterations >= 1). */
     vm escaped = v_gt(r2, p->bail2);
+    if (mandel)
+        dr2 = v_mul(dm, dm);
     vf lr2 = UB_FN(v_log)(r2);
     vf est = v_mul(v_mul(v_sqrt(v_div(r2, dr2)), lr2), v_set1(0.25f));
     *dist = v_select(escaped, est, v_set1(0.0f));
@@ -138,6 +159,212 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, const ub_object *
             x->normal[k] = v_fma(a, j[k][0], v_fma(b, j[k][1], v_fma(c, j[k][2], v_mul(d, j[k][3]))));
 }
 
+/* Julia set stacks (section 5.1): the point (x, y, w) is z = x + iy in the Julia set of
+ * z^2 + c(u), u = w / height + 1/2 along the c-path. No distance underestimate is proven
+ * (the paper); this one follows its hint and the Mandelbrot estimate: |z_n| log|z_n| / (2 |grad|)
+ * with |grad|^2 = |dz_n/dz|^2 + |dz_n/dc|^2 |dc/dw|^2, the second term the Mandelbrot
+ * derivative (|dz/dc| <- 2|z||dz/dc| + 1) times the path's speed. A constant path leaves the
+ * exact planar estimate: a straight extrusion. Cut to the slab |w| <= height / 2. */
+static inline void UB_FN(de_stack)(const UB_FN(ub_de_params) *p, vf x, vf y, vf w, const int want, vf *dist, vf *iters,
+                                   UB_FN(ub_de_extra) *ex)
+{
+    const ub_object *o = p->obj;
+    float cr[UB_LANES], ci[UB_LANES], speed[UB_LANES], wl[UB_LANES];
+    v_store(wl, w);
+    const int last = o->path_count - 1;
+    for (int l = 0; l < UB_LANES; l++) {
+        double u = (double)wl[l] / o->stack_height + 0.5;
+        u = u < 0.0 ? 0.0 : (u > 1.0 ? 1.0 : u); /* NaN -> 1: the lane is discarded anyway */
+        double pos = u * last;
+        int i = last > 0 ? (int)pos : 0;
+        if (i >= last)
+            i = last > 0 ? last - 1 : 0;
+        double f = pos - i;
+        const double *c0 = o->path[i], *c1 = o->path[last > 0 ? i + 1 : 0];
+        cr[l] = (float)(c0[0] + f * (c1[0] - c0[0]));
+        ci[l] = (float)(c0[1] + f * (c1[1] - c0[1]));
+        speed[l] = (float)(hypot(c1[0] - c0[0], c1[1] - c0[1]) * last / o->stack_height);
+    }
+    const vf c_re = v_load(cr), c_im = v_load(ci), cw = v_load(speed);
+    const vf two = v_set1(2.0f), four = v_set1(4.0f), half = v_set1(0.5f), one = v_set1(1.0f);
+    vf a = x, b = y;
+    vf r2 = v_fma(a, a, v_mul(b, b)), dr2 = one, dm = v_set1(0.0f), n = v_set1(0.0f), trap = r2, gscale = one;
+    vm active = m_from_bits(0xff);
+    for (int it = 0; it < p->max_iterations; it++) {
+        vf na = v_fms(a, a, v_fms(b, b, c_re));
+        vf nb = v_fma(v_add(a, a), b, c_im);
+        dm = v_select(active, v_fma(v_mul(two, v_sqrt(r2)), dm, one), dm);
+        dr2 = v_select(active, v_mul(dr2, v_mul(four, r2)), dr2);
+        vf nr2 = v_fma(na, na, v_mul(nb, nb));
+        a = v_select(active, na, a);
+        b = v_select(active, nb, b);
+        r2 = v_select(active, nr2, r2);
+        if (want & UB_WANT_TRAP)
+            trap = v_select(active, v_min(trap, nr2), trap);
+        if (want & UB_WANT_POTENTIAL)
+            gscale = v_select(active, v_mul(gscale, half), gscale);
+        n = v_count(n, active);
+        active = m_andnot(v_gt(nr2, p->bail2), active);
+        if (!m_bits(active))
+            break;
+    }
+    vm escaped = v_gt(r2, p->bail2);
+    vf lr2 = UB_FN(v_log)(r2);
+    vf dc = v_mul(dm, cw);
+    vf est = v_mul(v_mul(v_sqrt(v_div(r2, v_fma(dc, dc, dr2))), lr2), v_set1(0.25f));
+    vf slab = v_sub(v_max(w, v_sub(v_set1(0.0f), w)), v_set1((float)(0.5 * o->stack_height)));
+    *dist = v_max(v_select(escaped, est, v_set1(0.0f)), slab);
+    *iters = n;
+    if (want & UB_WANT_TRAP)
+        ex->trap = v_sqrt(trap);
+    if (want & UB_WANT_POTENTIAL)
+        ex->potential = v_select(escaped, v_mul(v_mul(lr2, half), gscale), v_set1(0.0f));
+    if (want & UB_WANT_JACOBIAN)
+        ex->normal[0] = ex->normal[1] = ex->normal[2] = v_set1(0.0f);
+}
+
+/* One critical orbit of the cubic f(z) = z^3 - 3a^2 z + b (eq. 19) from z0 = sign * a, with
+ * the derivatives P = dz/da, Q = dz/db (z is holomorphic in (a, b)):
+ *   P <- f'(z) P - 6 a z,  Q <- f'(z) Q + 1,  f'(z) = 3z^2 - 3a^2,  P0 = sign, Q0 = 0.
+ * Empirical estimate (section 5.2 knows none): |z_n| log|z_n| / (2 |grad|), the gradient over
+ * the slice's three axes (Frobenius norm: never below the true gradient's length). */
+static inline void UB_FN(cubic_orbit)(const UB_FN(ub_de_params) *p, float sign, vf ar, vf ai, vf br, vf bi,
+                                      const int want, vf *dist, vf *iters, vf *trap_out, vf *potential)
+{
+    const ub_object *o = p->obj;
+    const vf three = v_set1(3.0f), zero = v_set1(0.0f), third = v_set1(1.0f / 3.0f);
+    const vf s = v_set1(sign);
+    vf zr = v_mul(s, ar), zi = v_mul(s, ai);
+    vf pr = s, pi = zero, qr = zero, qi = zero;
+    /* 3 a^2 and 6 a */
+    vf a2r = v_mul(three, v_fms(ar, ar, v_mul(ai, ai))), a2i = v_mul(three, v_mul(v_add(ar, ar), ai));
+    vf a6r = v_mul(v_set1(6.0f), ar), a6i = v_mul(v_set1(6.0f), ai);
+    vf r2 = v_fma(zr, zr, v_mul(zi, zi)), n = zero, trap = r2, gscale = v_set1(1.0f);
+    vm active = m_from_bits(0xff);
+    for (int it = 0; it < p->max_iterations; it++) {
+        vf z2r = v_fms(zr, zr, v_mul(zi, zi)), z2i = v_mul(v_add(zr, zr), zi);
+        vf fpr = v_fms(three, z2r, a2r), fpi = v_fms(three, z2i, a2i); /* f'(z) */
+        vf azr = v_fms(a6r, zr, v_mul(a6i, zi)), azi = v_fma(a6r, zi, v_mul(a6i, zr)); /* 6az */
+        vf npr = v_sub(v_fms(fpr, pr, v_mul(fpi, pi)), azr), npi = v_sub(v_fma(fpr, pi, v_mul(fpi, pr)), azi);
+        vf nqr = v_add(v_fms(fpr, qr, v_mul(fpi, qi)), v_set1(1.0f)), nqi = v_fma(fpr, qi, v_mul(fpi, qr));
+        /* z^3 - 3a^2 z + b = z (z^2 - 3a^2) + b */
+        vf wr = v_sub(z2r, a2r), wi = v_sub(z2i, a2i);
+        vf nzr = v_add(v_fms(zr, wr, v_mul(zi, wi)), br), nzi = v_add(v_fma(zr, wi, v_mul(zi, wr)), bi);
+        vf nr2 = v_fma(nzr, nzr, v_mul(nzi, nzi));
+        zr = v_select(active, nzr, zr);
+        zi = v_select(active, nzi, zi);
+        pr = v_select(active, npr, pr);
+        pi = v_select(active, npi, pi);
+        qr = v_select(active, nqr, qr);
+        qi = v_select(active, nqi, qi);
+        r2 = v_select(active, nr2, r2);
+        if (want & UB_WANT_TRAP)
+            trap = v_select(active, v_min(trap, nr2), trap);
+        if (want & UB_WANT_POTENTIAL)
+            gscale = v_select(active, v_mul(gscale, third), gscale);
+        n = v_count(n, active);
+        active = m_andnot(v_gt(nr2, p->bail2), active);
+        if (!m_bits(active))
+            break;
+    }
+    vf grad2 = zero;
+    for (int k = 0; k < 3; k++) {
+        /* dz/dx_k = P da_k + Q db_k, the slice axis k being (da_k, db_k) in C^2. */
+        vf dar = v_set1((float)o->slice_basis[0][k]), dai = v_set1((float)o->slice_basis[1][k]);
+        vf dbr = v_set1((float)o->slice_basis[2][k]), dbi = v_set1((float)o->slice_basis[3][k]);
+        vf gr = v_fma(pr, dar, v_fms(qr, dbr, v_fma(pi, dai, v_mul(qi, dbi))));
+        vf gi = v_fma(pr, dai, v_fma(pi, dar, v_fma(qr, dbi, v_mul(qi, dbr))));
+        grad2 = v_fma(gr, gr, v_fma(gi, gi, grad2));
+    }
+    vm escaped = v_gt(r2, p->bail2);
+    vf lr2 = UB_FN(v_log)(r2);
+    vf est = v_mul(v_mul(v_sqrt(v_div(r2, grad2)), lr2), v_set1(0.25f));
+    /* An overflowed gradient gives 0 (a hit) rather than a step too far. */
+    *dist = v_select(escaped, v_select(v_lt(grad2, v_set1(HUGE_VALF)), est, zero), zero);
+    *iters = n;
+    *trap_out = trap;
+    *potential = v_select(escaped, v_mul(v_mul(lr2, v_set1(0.5f)), gscale), zero);
+}
+
+/* The cubic connectedness locus (section 5.2) in the 4-D (a, b) space: C+, C-, their union
+ * (min of the estimates) or their intersection (max), clipped to the ball |(a, b)| <= extent. */
+static inline void UB_FN(de_cubic)(const UB_FN(ub_de_params) *p, vf ar, vf ai, vf br, vf bi, const int want, vf *dist,
+                                   vf *iters, UB_FN(ub_de_extra) *x)
+{
+    const ub_object *o = p->obj;
+    vf d, n, trap, pot;
+    int comp = o->cubic_component;
+    UB_FN(cubic_orbit)(p, comp == UB_CUBIC_MINUS ? -1.0f : 1.0f, ar, ai, br, bi, want, &d, &n, &trap, &pot);
+    if (comp == UB_CUBIC_UNION || comp == UB_CUBIC_BOTH) {
+        vf d2, n2, trap2, pot2;
+        UB_FN(cubic_orbit)(p, -1.0f, ar, ai, br, bi, want, &d2, &n2, &trap2, &pot2);
+        vm second = comp == UB_CUBIC_UNION ? v_lt(d2, d) : v_gt(d2, d);
+        d = v_select(second, d2, d);
+        n = v_select(second, n2, n);
+        trap = v_select(second, trap2, trap);
+        pot = v_select(second, pot2, pot);
+    }
+    vf r = v_sqrt(v_fma(ar, ar, v_fma(ai, ai, v_fma(br, br, v_mul(bi, bi)))));
+    *dist = v_max(d, v_sub(r, v_set1((float)o->extent)));
+    *iters = n;
+    if (want & UB_WANT_TRAP)
+        x->trap = v_sqrt(trap);
+    if (want & UB_WANT_POTENTIAL)
+        x->potential = pot;
+    if (want & UB_WANT_JACOBIAN)
+        x->normal[0] = x->normal[1] = x->normal[2] = v_set1(0.0f);
+}
+
+/* 3-D IFS (section 5.3): the bounding-ball hierarchy of ifs.c, lane by lane in double precision.
+ * The bound is signed (negative inside a leaf ball), so gradients give the leaves' normals. The
+ * escape count is the depth that settled the bound, the orbit trap the leaf's address. */
+static inline void UB_FN(de_ifs)(const UB_FN(ub_de_params) *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+                                 UB_FN(ub_de_extra) *ex)
+{
+    float xs[UB_LANES], ys[UB_LANES], zs[UB_LANES], ds[UB_LANES], ns[UB_LANES], as[UB_LANES];
+    v_store(xs, x);
+    v_store(ys, y);
+    v_store(zs, z);
+    for (int l = 0; l < UB_LANES; l++) {
+        double pt[3] = {xs[l], ys[l], zs[l]}, address;
+        int depth;
+        ds[l] = (float)ub_ifs_distance(p->obj, pt, &address, &depth);
+        ns[l] = (float)depth;
+        as[l] = (float)address;
+    }
+    *dist = v_load(ds);
+    *iters = v_load(ns);
+    if (want & UB_WANT_TRAP)
+        ex->trap = v_load(as);
+    if (want & UB_WANT_POTENTIAL)
+        ex->potential = v_set1(0.0f);
+    if (want & UB_WANT_JACOBIAN)
+        ex->normal[0] = ex->normal[1] = ex->normal[2] = v_set1(0.0f);
+}
+
+/* The distance estimate of the object's kind, with the extras `want` asks for. */
+static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf d, const int want, vf *dist,
+                                 vf *iters, UB_FN(ub_de_extra) *x)
+{
+    switch (p->kind) {
+    case UB_KIND_QUATERNION_MANDELBROT:
+        UB_FN(de_quaternion)(p, 1, a, b, c, d, want, dist, iters, x);
+        break;
+    case UB_KIND_JULIA_STACK:
+        UB_FN(de_stack)(p, a, b, c, want, dist, iters, x);
+        break;
+    case UB_KIND_CUBIC_LOCUS:
+        UB_FN(de_cubic)(p, a, b, c, d, want, dist, iters, x);
+        break;
+    case UB_KIND_IFS:
+        UB_FN(de_ifs)(p, a, b, c, want, dist, iters, x);
+        break;
+    default:
+        UB_FN(de_quaternion)(p, 0, a, b, c, d, want, dist, iters, x);
+        break;
+    }
+}
+
 /* Distance estimate of section 3 at quaternion points q:
  *   d(z) = |f^n(z)| log|f^n(z)| / (2 |f^n'(z)|)
  * with f(z) = z^2 + mu iterated until |z| exceeds the escape radius or max_iterations is
@@ -149,7 +376,7 @@ static inline void UB_FN(de)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf 
 {
     /* want = 0: the compiler inlines de_ext down to the bare iteration (the marcher's hot loop). */
     UB_FN(ub_de_extra) unused;
-    UB_FN(de_ext)(p, NULL, a, b, c, d, 0, dist, iters, &unused);
+    UB_FN(de_ext)(p, a, b, c, d, 0, dist, iters, &unused);
 }
 
 /* Object-space point -> quaternion on the object's slice, in double then rounded. */
@@ -195,6 +422,11 @@ static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *
     vf dist, it;
     UB_FN(ub_de_extra) x;
     vm good = m_false(); /* lanes with a usable gradient */
+    /* Only the quaternion kinds carry a Jacobian, and the IFS has no potential: the others use
+     * the distance gradient. */
+    int quaternion = o->kind == UB_KIND_QUATERNION_JULIA || o->kind == UB_KIND_QUATERNION_MANDELBROT;
+    if ((method == UB_NORMAL_ANALYTIC && !quaternion) || (method == UB_NORMAL_GRADIENT_POTENTIAL && o->kind == UB_KIND_IFS))
+        method = UB_NORMAL_GRADIENT_DISTANCE;
     if (method != UB_NORMAL_ANALYTIC) {
         const int potential = method == UB_NORMAL_GRADIENT_POTENTIAL;
         for (int axis = 0; axis < 3; axis++) {
@@ -206,7 +438,7 @@ static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *
                 vf a = v_fma(sg, off[0], q[0]), b = v_fma(sg, off[1], q[1]), c = v_fma(sg, off[2], q[2]),
                    d = v_fma(sg, off[3], q[3]);
                 if (potential) {
-                    UB_FN(de_ext)(dp, o, a, b, c, d, UB_WANT_POTENTIAL, &dist, &it, &x);
+                    UB_FN(de_ext)(dp, a, b, c, d, UB_WANT_POTENTIAL, &dist, &it, &x);
                     v[side] = x.potential;
                 } else {
                     UB_FN(de)(dp, a, b, c, d, &v[side], &it);
@@ -218,7 +450,7 @@ static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *
     }
     if (m_bits(good) == 0xff)
         return;
-    UB_FN(de_ext)(dp, o, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
+    UB_FN(de_ext)(dp, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
     for (int k = 0; k < 3; k++)
         g[k] = method == UB_NORMAL_ANALYTIC ? x.normal[k] : v_select(good, g[k], x.normal[k]);
 }

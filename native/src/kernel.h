@@ -236,7 +236,7 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
         if (need_trap) {
             vf dist, it;
             UB_FN(ub_de_extra) x;
-            UB_FN(de_ext)(&dps[k], o, qv[0], qv[1], qv[2], qv[3], UB_WANT_TRAP, &dist, &it, &x);
+            UB_FN(de_ext)(&dps[k], qv[0], qv[1], qv[2], qv[3], UB_WANT_TRAP, &dist, &it, &x);
             v_store(tb, x.trap);
         }
         for (int l = 0; l < UB_LANES; l++) {

@@ -202,9 +202,12 @@ static const char *const object_keys[] = {
     "kind", "mu", "theta", "slice_basis", "slice_origin", "matrix", "max_iterations", "bailout",
     "epsilon_mode", "epsilon", "detail", "step_factor", "max_step", "max_steps", "bisection_steps",
     "color", "normal_method", "normal_alpha", "normal_delta", "reflectivity", "color_mode", "color_ramp",
-    "ramp_scale", "ramp_offset", NULL,
+    "ramp_scale", "ramp_offset", "path", "stack_height", "cubic_component", "extent", "maps", "ifs_depth", NULL,
 };
-static const char *const kind_names[] = {"quaternion_julia", NULL};
+/* Indexed by ub_fractal_kind. */
+static const char *const kind_names[] = {"quaternion_julia", "quaternion_mandelbrot", "julia_stack", "cubic_locus",
+                                         "ifs", NULL};
+static const char *const cubic_components[] = {"plus", "minus", "union", "both", NULL};
 static const char *const epsilon_modes[] = {"pixel", "fixed", NULL};
 static const char *const normal_methods[] = {"gradient_distance", "gradient_potential", "zbuffer", "analytic", NULL};
 static const char *const color_modes[] = {"base", "orbit_trap", "iterations", NULL};
@@ -256,6 +259,58 @@ static int get_ramp(PyObject *o, const char *name, ub_object *obj)
     return 0;
 }
 
+/* A sequence of 1..max items, each parsed by `item_fn` into slot i; returns the count or -1. */
+static int get_sequence(PyObject *o, const char *name, int max, const char *what,
+                        int (*item_fn)(PyObject *, const char *, ub_object *, int), ub_object *obj)
+{
+    if (!PySequence_Check(o) || PyUnicode_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be a sequence of %s", name, what);
+        return -1;
+    }
+    Py_ssize_t len = PySequence_Size(o);
+    if (len < 0)
+        return -1;
+    if (len < 1 || len > max) {
+        PyErr_Format(PyExc_ValueError, "%s must hold 1 to %d %s", name, max, what);
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < len; i++) {
+        PyObject *item = PySequence_GetItem(o, i);
+        if (!item)
+            return -1;
+        char sub[ERRBUF];
+        snprintf(sub, sizeof sub, "%s[%zd]", name, i);
+        int rc = item_fn(item, sub, obj, (int)i);
+        Py_DECREF(item);
+        if (rc)
+            return -1;
+    }
+    return (int)len;
+}
+
+static int get_path_point(PyObject *o, const char *name, ub_object *obj, int i)
+{
+    if (get_vector(o, name, 2, obj->path[i]))
+        return -1;
+    if (fabs(obj->path[i][0]) > 1e3 || fabs(obj->path[i][1]) > 1e3) {
+        PyErr_Format(PyExc_ValueError, "%s: c components must be within [-1000, 1000]", name);
+        return -1;
+    }
+    return 0;
+}
+
+static int get_ifs_map(PyObject *o, const char *name, ub_object *obj, int i)
+{
+    if (get_matrix(o, name, 3, 4, &obj->maps[i][0][0]))
+        return -1;
+    for (int r = 0; r < 3; r++)
+        if (fabs(obj->maps[i][r][3]) > 1e6) {
+            PyErr_Format(PyExc_ValueError, "%s: translations must be within [-1e6, 1e6]", name);
+            return -1;
+        }
+    return 0;
+}
+
 static int parse_object(PyObject *o, const char *name, ub_object *obj)
 {
     if (!PyDict_Check(o)) {
@@ -280,6 +335,23 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
     obj->max_step = HUGE_VAL;
     obj->max_steps = 2000;
     obj->bisection_steps = 10;
+    /* Section 5 defaults: Fig. 4's stack of real c, the connectedness locus proper, the
+     * Sierpinski tetrahedron. */
+    obj->path_count = 2;
+    obj->path[0][0] = -1.5;
+    obj->path[1][0] = 0.25;
+    obj->stack_height = 2.0;
+    obj->cubic_component = UB_CUBIC_BOTH;
+    obj->extent = 2.0;
+    obj->ifs_depth = 6;
+    static const double tetra[4][3] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+    obj->map_count = 4;
+    for (int i = 0; i < 4; i++)
+        for (int r = 0; r < 3; r++) {
+            obj->maps[i][r][r] = 0.5;
+            obj->maps[i][r][3] = 0.5 * tetra[i][r];
+        }
+    int component = UB_CUBIC_BOTH, count;
     char sub[ERRBUF];
     PyObject *v;
 #define FIELD(key) ((v = lookup(o, key)) != NULL && (snprintf(sub, sizeof sub, "%s.%s", name, key), 1))
@@ -332,7 +404,27 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
         return -1;
     if (FIELD("ramp_offset") && get_double(v, sub, -1e6, 1e6, 0, &ramp_offset))
         return -1;
+    if (FIELD("path")) {
+        if ((count = get_sequence(v, sub, UB_MAX_PATH, "(re, im) points", get_path_point, obj)) < 0)
+            return -1;
+        obj->path_count = count;
+    }
+    if (FIELD("stack_height") && get_double(v, sub, 1e-6, 1e6, 0, &obj->stack_height))
+        return -1;
+    if (FIELD("cubic_component") && get_choice(v, sub, cubic_components, &component))
+        return -1;
+    if (FIELD("extent") && get_double(v, sub, 1e-6, 1e3, 0, &obj->extent))
+        return -1;
+    if (FIELD("maps")) {
+        memset(obj->maps, 0, sizeof obj->maps);
+        if ((count = get_sequence(v, sub, UB_MAX_IFS_MAPS, "3x4 affine maps", get_ifs_map, obj)) < 0)
+            return -1;
+        obj->map_count = count;
+    }
+    if (FIELD("ifs_depth") && get_int(v, sub, 0, UB_MAX_IFS_DEPTH, &obj->ifs_depth))
+        return -1;
 #undef FIELD
+    obj->cubic_component = (ub_cubic_component)component;
     obj->normal_method = (ub_normal_method)normal_method;
     obj->color_mode = (ub_color_mode)color_mode;
     obj->reflectivity = (float)reflectivity;
@@ -975,7 +1067,9 @@ static PyObject *py_describe(PyObject *self, PyObject *args)
     ub_object obj;
     if (parse_object(obj_o, "object", &obj))
         return NULL;
-    return Py_BuildValue("{s:(ddd),s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}", "bound_center",
+    return Py_BuildValue("{s:s,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}", "kind",
+                         kind_names[obj.kind], "exact", obj.exact ? Py_True : Py_False, "step_factor", obj.step_factor,
+                         "max_step", obj.max_step, "bound_center",
                          obj.bound_center[0], obj.bound_center[1], obj.bound_center[2], "bound_radius",
                          obj.bound_radius, "bailout", obj.bailout, "sigma_min", obj.sigma_min, "slice_origin",
                          obj.slice_origin[0], obj.slice_origin[1], obj.slice_origin[2], obj.slice_origin[3],

@@ -39,12 +39,15 @@ static double det3(const double m[3][3])
          + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
 }
 
-/* Smallest eigenvalue of a symmetric positive semi-definite 3x3 matrix (closed form). */
-static double min_eigenvalue_sym3(const double a[3][3])
+/* Extreme eigenvalues of a symmetric 3x3 matrix (closed form, Smith 1961). */
+void ub_sym3_eigen_range(const double a[3][3], double *lmin, double *lmax)
 {
     double p1 = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-    if (p1 == 0.0)
-        return fmin(a[0][0], fmin(a[1][1], a[2][2]));
+    if (p1 == 0.0) {
+        *lmin = fmin(a[0][0], fmin(a[1][1], a[2][2]));
+        *lmax = fmax(a[0][0], fmax(a[1][1], a[2][2]));
+        return;
+    }
     double q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
     double p2 = (a[0][0] - q) * (a[0][0] - q) + (a[1][1] - q) * (a[1][1] - q)
               + (a[2][2] - q) * (a[2][2] - q) + 2.0 * p1;
@@ -55,13 +58,93 @@ static double min_eigenvalue_sym3(const double a[3][3])
             b[i][j] = (a[i][j] - (i == j ? q : 0.0)) / p;
     double r = det3(b) / 2.0;
     double phi = r <= -1.0 ? M_PI / 3.0 : (r >= 1.0 ? 0.0 : acos(r) / 3.0);
-    /* The three roots are q + 2p cos(phi + 2k pi/3); k = 1 gives the smallest. */
-    return q + 2.0 * p * cos(phi + 2.0 * M_PI / 3.0);
+    /* The three roots are q + 2p cos(phi + 2k pi/3); k = 0 gives the largest, k = 1 the smallest. */
+    *lmax = q + 2.0 * p * cos(phi);
+    *lmin = q + 2.0 * p * cos(phi + 2.0 * M_PI / 3.0);
+}
+
+/* The ball |q| <= radius4 of the 4-D space cut by the slice q = O + B p: a 3-ball around
+ * -B^T O of radius sqrt(R^2 - |O_perp|^2), or none (radius -1). */
+static void slice_ball(ub_object *obj, double radius4)
+{
+    double along[3], along2 = 0.0;
+    for (int c = 0; c < 3; c++) {
+        along[c] = 0.0;
+        for (int r = 0; r < 4; r++)
+            along[c] += obj->slice_basis[r][c] * obj->slice_origin[r];
+        along2 += along[c] * along[c];
+        obj->bound_center[c] = -along[c];
+    }
+    double perp2 = ub_quat_norm2(obj->slice_origin) - along2;
+    double r2 = radius4 * radius4 - fmax(perp2, 0.0);
+    obj->bound_radius = r2 >= 0.0 ? sqrt(r2) : -1.0;
+}
+
+/* The kind's bounding ball (section 3.4), escape radius and exactness. */
+static const char *prepare_kind(ub_object *obj)
+{
+    switch (obj->kind) {
+    case UB_KIND_QUATERNION_MANDELBROT:
+        /* |mu| > 2 escapes, and once |z| > 2 >= |mu| the orbit escapes. */
+        slice_ball(obj, 2.0);
+        obj->bailout = fmax(obj->bailout, 2.0);
+        obj->exact = 1;
+        return NULL;
+    case UB_KIND_JULIA_STACK: {
+        if (obj->path_count < 1)
+            return "a Julia stack needs a c-path of at least one point";
+        /* Every c on the path's segments has |c| <= the largest vertex norm (convexity). */
+        double c_max = 0.0;
+        for (int i = 0; i < obj->path_count; i++)
+            c_max = fmax(c_max, hypot(obj->path[i][0], obj->path[i][1]));
+        double radius = 0.5 * (1.0 + sqrt(1.0 + 4.0 * c_max)), h = 0.5 * obj->stack_height;
+        obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+        obj->bound_radius = sqrt(radius * radius + h * h);
+        obj->bailout = fmax(obj->bailout, radius);
+        obj->exact = 0;
+        return NULL;
+    }
+    case UB_KIND_CUBIC_LOCUS:
+        /* With |a|, |b| <= E and |z| >= 2 + (1 + sqrt 3) E: |f(z)| >= |z| (|z|^2 - 3E^2) - E
+         * >= 4|z| - E >= 3|z|, so the orbit escapes. */
+        slice_ball(obj, obj->extent);
+        obj->bailout = fmax(obj->bailout, 2.0 + (1.0 + sqrt(3.0)) * obj->extent);
+        obj->exact = 0;
+        return NULL;
+    case UB_KIND_IFS: {
+        const char *err = ub_ifs_prepare(obj);
+        if (err)
+            return err;
+        for (int c = 0; c < 3; c++)
+            obj->bound_center[c] = obj->ifs_center[c];
+        obj->bound_radius = obj->ifs_radius;
+        obj->exact = 1;
+        return NULL;
+    }
+    default: {
+        /* If |z| > R with R^2 - R - |mu| = 0 then |z^2 + mu| >= |z|^2 - |mu| > |z| and the orbit
+         * escapes, so K_mu lies in |z| <= R (g_theta preserves norms, so for every theta). An
+         * escape radius below R would call points of K_mu escaped; never use one. */
+        double radius4 = 0.5 * (1.0 + sqrt(1.0 + 4.0 * sqrt(ub_quat_norm2(obj->mu))));
+        slice_ball(obj, radius4);
+        obj->bailout = fmax(obj->bailout, radius4);
+        obj->exact = 1;
+        return NULL;
+    }
+    }
 }
 
 const char *ub_object_prepare(ub_object *obj, double theta, const double slice_basis[4][3],
                               const double slice_origin[4], const double object_to_world[4][4])
 {
+    static const double identity_basis[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
+    static const double zero_origin[4] = {0, 0, 0, 0};
+    if (obj->kind == UB_KIND_JULIA_STACK || obj->kind == UB_KIND_IFS) {
+        /* Three-dimensional kinds: the "slice" is object space itself. */
+        slice_basis = identity_basis;
+        slice_origin = zero_origin;
+        theta = 0.0;
+    }
     /* The slice basis must be orthonormal: distances measured in object space then equal
      * distances in quaternion space, which the distance estimate is about. */
     for (int a = 0; a < 3; a++)
@@ -118,29 +201,21 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             ata[i][j] = lin[0][i] * lin[0][j] + lin[1][i] * lin[1][j] + lin[2][i] * lin[2][j];
-    double lmin = min_eigenvalue_sym3(ata);
+    double lmin, lmax;
+    ub_sym3_eigen_range(ata, &lmin, &lmax);
     obj->sigma_min = sqrt(fmax(lmin, 0.0));
     if (!(obj->sigma_min > 1e-9))
         return "object_to_world must be invertible (zero scale?)";
 
-    /* Section 3.4: a ball that provably contains K_mu. If |z| > R with R^2 - R - |mu| = 0 then
-     * |z^2 + mu| >= |z|^2 - |mu| > |z| and the orbit escapes, so K_mu lies in |z| <= R (g_theta
-     * preserves norms, so this holds for every theta). The slice q = O + B p cuts that 4-ball
-     * in a 3-ball around -B^T O of radius sqrt(R^2 - |O_perp|^2). */
-    double mu_norm = sqrt(ub_quat_norm2(obj->mu));
-    double radius4 = 0.5 * (1.0 + sqrt(1.0 + 4.0 * mu_norm));
-    double along[3], along2 = 0.0;
-    for (int c = 0; c < 3; c++) {
-        along[c] = 0.0;
-        for (int r = 0; r < 4; r++)
-            along[c] += obj->slice_basis[r][c] * obj->slice_origin[r];
-        along2 += along[c] * along[c];
-        obj->bound_center[c] = -along[c];
+    const char *err = prepare_kind(obj);
+    if (err)
+        return err;
+    /* Section 5: where no distance underestimate is proven, the estimate is made safe by a
+     * smaller step, a cap on any one step and the bisection of every hit (march.h). */
+    if (!obj->exact) {
+        obj->step_factor *= UB_EMPIRICAL_SAFETY;
+        if (obj->bound_radius > 0.0)
+            obj->max_step = fmin(obj->max_step, UB_EMPIRICAL_MAX_STEP * obj->bound_radius * obj->sigma_min);
     }
-    double perp2 = ub_quat_norm2(obj->slice_origin) - along2;
-    double r2 = radius4 * radius4 - fmax(perp2, 0.0);
-    obj->bound_radius = r2 >= 0.0 ? sqrt(r2) : -1.0;
-    /* An escape radius below R would call points of K_mu escaped; never use one. */
-    obj->bailout = fmax(obj->bailout, radius4);
     return NULL;
 }

@@ -21,6 +21,9 @@
 #define UB_MAX_REFLECTION_DEPTH 16
 #define UB_MAX_AO_SAMPLES 32
 #define UB_MAX_RAMP 256
+#define UB_MAX_PATH 256        /* points of a Julia stack's c-path */
+#define UB_MAX_IFS_MAPS 32
+#define UB_MAX_IFS_DEPTH 16
 
 /* Depth written for background pixels: the value Cycles writes into its Depth pass for a miss. */
 #define UB_BACKGROUND_DEPTH 1.0e10f
@@ -45,7 +48,26 @@ typedef struct {
     double footprint0, footprint1;
 } ub_camera;
 
-typedef enum { UB_KIND_QUATERNION_JULIA = 0 } ub_fractal_kind;
+/* The families of section 5 beside the quaternion Julia sets. Julia sets, Mandelbrot slices and
+ * IFS have a distance bound that never overshoots (exact); stacks and the cubic locus have no
+ * proven one (section 5.1-5.2) and march with an empirical estimate made safe (march.h). */
+typedef enum {
+    UB_KIND_QUATERNION_JULIA = 0,
+    UB_KIND_QUATERNION_MANDELBROT, /* z0 = 0, mu = the slice point */
+    UB_KIND_JULIA_STACK,           /* complex Julia sets of z^2 + c(u) stacked along z */
+    UB_KIND_CUBIC_LOCUS,           /* z^3 - 3a^2 z + b over the 4-D (a, b) space */
+    UB_KIND_IFS,                   /* attractor of 3-D affine maps */
+    UB_KIND_COUNT
+} ub_fractal_kind;
+
+/* Which critical orbits of the cubic must stay bounded: C+, C-, either, or both (the
+ * connectedness locus proper, C+ n C-). */
+typedef enum { UB_CUBIC_PLUS = 0, UB_CUBIC_MINUS, UB_CUBIC_UNION, UB_CUBIC_BOTH } ub_cubic_component;
+
+/* Safety of the empirical estimates: their step is scaled by this on top of step_factor, and
+ * capped at UB_EMPIRICAL_MAX_STEP of the bounding radius. */
+#define UB_EMPIRICAL_SAFETY 0.5
+#define UB_EMPIRICAL_MAX_STEP 0.05
 
 /* Normal approximations of section 4.1. */
 typedef enum {
@@ -96,6 +118,25 @@ typedef struct {
     int ramp_size;
     float ramp[UB_MAX_RAMP][3];
     float ramp_scale, ramp_offset;
+    /* Whether the kind's distance estimate is proven never to overshoot (see ub_fractal_kind). */
+    int exact;
+    /* Julia stack: c(u) piecewise linear through path[0..path_count), u in [0, 1] spanning
+     * object z in [-stack_height / 2, stack_height / 2]; x + iy is the complex plane. */
+    int path_count;
+    double path[UB_MAX_PATH][2];
+    double stack_height;
+    /* Cubic locus: component, and the radius of the 4-D ball it is clipped to (C+ and C- are
+     * unbounded; their intersection lies in |a|, |b| <= 2). */
+    ub_cubic_component cubic_component;
+    double extent;
+    /* IFS: x -> A x + t per map (rows of A | t), the recursion depth, and derived: each map's
+     * operator norm (upper bound), a ball (ifs_center, ifs_radius) mapped into itself by every
+     * map, and each map's image of the centre. */
+    int map_count, ifs_depth;
+    double maps[UB_MAX_IFS_MAPS][3][4];
+    double map_norm[UB_MAX_IFS_MAPS];
+    double map_center[UB_MAX_IFS_MAPS][3];
+    double ifs_center[3], ifs_radius;
 } ub_object;
 
 typedef enum { UB_LIGHT_POINT = 0, UB_LIGHT_SUN, UB_LIGHT_SPOT, UB_LIGHT_AREA } ub_light_type;
@@ -227,6 +268,15 @@ int ub_cpu_has_avx2_fma(void);
 /* scene.c / camera.c: derive the precomputed fields; return NULL or an error message. */
 const char *ub_object_prepare(ub_object *obj, double theta, const double slice_basis[4][3],
                               const double slice_origin[4], const double object_to_world[4][4]);
+/* Smallest and largest eigenvalue of a symmetric 3x3 matrix. */
+void ub_sym3_eigen_range(const double a[3][3], double *lmin, double *lmax);
+/* ifs.c: validate the maps and derive the bounding ball; NULL or an error message. */
+const char *ub_ifs_prepare(ub_object *obj);
+/* Lower bound on the distance from object-space point p to the IFS attractor (the union of the
+ * leaf balls at ifs_depth); *address: where in the map hierarchy the nearest leaf lies, in
+ * [0, 1); *depth: the depth at which the bound was settled. Scalar double precision, shared by
+ * both kernels so they agree bit for bit. */
+double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth);
 const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
                               const double projection[4][4]);
 /* Ray through the centre of full-image pixel (px, py): world origin, unit direction, t range. */

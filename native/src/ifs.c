@@ -1,0 +1,184 @@
+/* 3-D iterated function systems (section 5.3): a conservative distance bound to the attractor
+ * through a hierarchy of bounding balls.
+ *
+ * If every map w_i(x) = A_i x + t_i sends the ball B = B(c, R) into itself, the attractor
+ * A = U w_i(A) lies in B, hence in U w_i(B), and at depth k in the union over words
+ * i_1..i_k of w_{i_1} o ... o w_{i_k}(B). Each such image is inside the ball of centre
+ * w_word(c) and radius s_word R, s_word = s_{i_1} ... s_{i_k} >= ||A_word|| (s_i the operator
+ * norm of A_i). So |p - centre| - radius, minimised over the balls of any cut through the
+ * tree, never exceeds the distance from p to A: the bound a ray may step (section 3's
+ * unbounding sphere). A child's ball lies inside its parent's (the same inequality one level
+ * down), so a child's bound is never below its parent's: that makes the branch-and-bound
+ * below exact with respect to the full-depth cut, up to the early settling it allows. */
+#include "scene.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Largest eigenvalue of a symmetric positive semi-definite 3x3 matrix, bounded from above
+ * (power iteration gives a lower bound; Gershgorin an upper one): we take the closed form and
+ * add a relative margin, since an underestimated norm would make the bound overshoot. */
+static double max_eigenvalue_sym3(const double a[3][3])
+{
+    double lmin, lmax;
+    ub_sym3_eigen_range(a, &lmin, &lmax);
+    double gersh = 0.0;
+    for (int i = 0; i < 3; i++)
+        gersh = fmax(gersh, fabs(a[i][0]) + fabs(a[i][1]) + fabs(a[i][2]));
+    return fmin(lmax * (1.0 + 1e-9) + 1e-300, gersh);
+}
+
+static int solve3(const double m[3][3], const double b[3], double x[3])
+{
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+               + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (!(fabs(det) > 1e-300))
+        return -1;
+    for (int c = 0; c < 3; c++) {
+        double t[3][3];
+        memcpy(t, m, sizeof t);
+        for (int r = 0; r < 3; r++)
+            t[r][c] = b[r];
+        x[c] = (t[0][0] * (t[1][1] * t[2][2] - t[1][2] * t[2][1]) - t[0][1] * (t[1][0] * t[2][2] - t[1][2] * t[2][0])
+                + t[0][2] * (t[1][0] * t[2][1] - t[1][1] * t[2][0]))
+             / det;
+    }
+    return 0;
+}
+
+static double dist3(const double a[3], const double b[3])
+{
+    double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
+    return sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+}
+
+static void apply(const double m[3][4], const double p[3], double out[3])
+{
+    for (int r = 0; r < 3; r++)
+        out[r] = m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3];
+}
+
+const char *ub_ifs_prepare(ub_object *o)
+{
+    if (o->map_count < 1)
+        return "an IFS needs at least one map";
+    double fixed_sum[3] = {0, 0, 0};
+    for (int i = 0; i < o->map_count; i++) {
+        double ata[3][3];
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++)
+                ata[r][c] = o->maps[i][0][r] * o->maps[i][0][c] + o->maps[i][1][r] * o->maps[i][1][c]
+                          + o->maps[i][2][r] * o->maps[i][2][c];
+        double s = sqrt(max_eigenvalue_sym3(ata));
+        /* A norm near 1 would give an enormous bounding ball and no useful bound. */
+        if (!(s < 0.999))
+            return "every IFS map must be a contraction (operator norm of its 3x3 part below 0.999)";
+        o->map_norm[i] = s;
+        double i_minus_a[3][3], t[3], x[3];
+        for (int r = 0; r < 3; r++) {
+            for (int c = 0; c < 3; c++)
+                i_minus_a[r][c] = (r == c ? 1.0 : 0.0) - o->maps[i][r][c];
+            t[r] = o->maps[i][r][3];
+        }
+        if (solve3(i_minus_a, t, x))
+            return "an IFS map has no fixed point";
+        for (int r = 0; r < 3; r++)
+            fixed_sum[r] += x[r];
+    }
+    /* Centre: the fixed points' centroid. Radius: the smallest R with w_i(B(c, R)) in B(c, R)
+     * for every map, |w_i(c) - c| + s_i R <= R. */
+    double radius = 0.0;
+    for (int r = 0; r < 3; r++)
+        o->ifs_center[r] = fixed_sum[r] / o->map_count;
+    for (int i = 0; i < o->map_count; i++) {
+        apply(o->maps[i], o->ifs_center, o->map_center[i]);
+        radius = fmax(radius, dist3(o->map_center[i], o->ifs_center) / (1.0 - o->map_norm[i]));
+    }
+    /* A single point (all maps constant onto it) still renders as a small ball. */
+    o->ifs_radius = fmax(radius * (1.0 + 1e-9), 1e-6);
+    if (!isfinite(o->ifs_radius) || o->ifs_radius > 1e6)
+        return "the IFS attractor is too large (its bounding ball exceeds 1e6 object units)";
+    return NULL;
+}
+
+typedef struct {
+    double lin[3][3], off[3]; /* the composed map w_word: x -> lin x + off */
+    double scale;             /* s_word */
+    double lower;             /* |p - w_word(c)| - s_word R */
+    double address, span;     /* where the word lies in [0, 1): sum of i_k / m^k, and m^-depth */
+    int depth;
+} ifs_node;
+
+/* A node is settled, not split further, once its ball is small against its distance: every
+ * point of it is then within (1 + UB_IFS_SETTLE) of the bound, which is all the marcher needs
+ * far from the surface. Near the surface the bound goes to 0 and nodes are split to the
+ * full depth. */
+#define UB_IFS_SETTLE 0.25
+
+double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth)
+{
+    const int m = o->map_count, max_depth = o->ifs_depth;
+    const double R = o->ifs_radius;
+    ifs_node stack[UB_MAX_IFS_DEPTH * (UB_MAX_IFS_MAPS - 1) + 2];
+    int sp = 0;
+    ifs_node *root = &stack[sp++];
+    memset(root, 0, sizeof *root);
+    for (int r = 0; r < 3; r++)
+        root->lin[r][r] = 1.0;
+    root->scale = 1.0;
+    root->span = 1.0;
+    double d0 = dist3(p, o->ifs_center);
+    root->lower = d0 - R;
+    double upper = d0 + R;    /* the attractor has a point within this distance */
+    double best = HUGE_VAL;   /* minimum bound over the settled part of the cut */
+    *address = 0.0;
+    *depth = 0;
+    while (sp > 0) {
+        ifs_node n = stack[--sp];
+        if (n.lower >= best || n.lower > upper)
+            continue; /* cannot lower the minimum, or cannot hold the nearest point */
+        double radius = n.scale * R;
+        if (n.depth == max_depth || radius <= UB_IFS_SETTLE * n.lower) {
+            best = n.lower;
+            *address = n.address + 0.5 * n.span;
+            *depth = n.depth;
+            continue;
+        }
+        /* Children in order of their bound, nearest pushed last (popped first). */
+        double lower[UB_MAX_IFS_MAPS];
+        int order[UB_MAX_IFS_MAPS];
+        for (int i = 0; i < m; i++) {
+            double c[3];
+            for (int r = 0; r < 3; r++)
+                c[r] = n.lin[r][0] * o->map_center[i][0] + n.lin[r][1] * o->map_center[i][1]
+                     + n.lin[r][2] * o->map_center[i][2] + n.off[r];
+            double dc = dist3(p, c), rc = radius * o->map_norm[i];
+            lower[i] = dc - rc;
+            upper = fmin(upper, dc + rc);
+            int k = i;
+            while (k > 0 && lower[order[k - 1]] < lower[i]) {
+                order[k] = order[k - 1];
+                k--;
+            }
+            order[k] = i;
+        }
+        for (int k = 0; k < m; k++) {
+            int i = order[k];
+            if (lower[i] >= best || lower[i] > upper)
+                continue;
+            ifs_node *ch = &stack[sp++];
+            const double(*a)[4] = o->maps[i];
+            for (int r = 0; r < 3; r++) {
+                for (int c = 0; c < 3; c++)
+                    ch->lin[r][c] = n.lin[r][0] * a[0][c] + n.lin[r][1] * a[1][c] + n.lin[r][2] * a[2][c];
+                ch->off[r] = n.lin[r][0] * a[0][3] + n.lin[r][1] * a[1][3] + n.lin[r][2] * a[2][3] + n.off[r];
+            }
+            ch->scale = n.scale * o->map_norm[i];
+            ch->lower = lower[i];
+            ch->span = n.span / m;
+            ch->address = n.address + i * ch->span;
+            ch->depth = n.depth + 1;
+        }
+    }
+    return best;
+}
