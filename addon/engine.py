@@ -62,7 +62,10 @@ def fractal_objects(depsgraph):
 
     def describe(ob, matrix):
         if ob.name not in params:
-            params[ob.name] = properties.native_parameters(ob.unbound)
+            try:
+                params[ob.name] = properties.native_parameters(ob.unbound, depsgraph)
+            except ValueError as exc:
+                raise RenderError("fractal '%s': %s" % (ob.name, exc)) from None
         return dict(params[ob.name], matrix=[list(row) for row in matrix])
 
     return scene_instances(depsgraph, utils.is_fractal, describe)

@@ -1,12 +1,13 @@
 """Operators: add a fractal object, its colour ramp and presets; build a compositor node tree from
 Unbound's passes."""
+import math
 import os
 
 import bpy
 from bl_operators.presets import AddPresetBase
 
 from . import passes, utils
-from .properties import UnboundObjectSettings, UnboundSceneSettings, bounding_radius
+from .properties import FRACTAL_KINDS, UnboundObjectSettings, UnboundSceneSettings, display_radius
 
 # Presets shipped with the extension; the user's own (Add Preset) go where Blender keeps presets,
 # scripts/presets/unbound/fractal, and the menu lists both.
@@ -37,7 +38,7 @@ class UNBOUND_OT_fractal_preset_add(AddPresetBase, bpy.types.Operator):
     # Every fractal and scene setting, read from the PropertyGroups so a new one is never left out;
     # not the ramp texture (a datablock) nor machine-specific render settings.
     preset_values = (["ob.unbound." + name for name in UnboundObjectSettings.__annotations__
-                      if name not in {"is_fractal", "color_ramp_texture"}]
+                      if name not in {"is_fractal", "color_ramp_texture", "path_curve", "ifs_active_map"}]
                      + ["scene.unbound." + name for name in UnboundSceneSettings.__annotations__
                         if name not in {"tile_size", "simd"}])
 
@@ -71,12 +72,54 @@ class UNBOUND_OT_color_ramp_add(bpy.types.Operator):
         return {'FINISHED'}
 
 
+def _menger_maps():
+    third = 1.0 / 3.0
+    return [((2 * third * x, 2 * third * y, 2 * third * z), (0.0, 0.0, 0.0), (third,) * 3)
+            for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if abs(x) + abs(y) + abs(z) > 1]
+
+
+def _koch_maps():
+    """The Koch curve's four maps of ratio 1/3 on [-1, 1] along X, the two rising ones also turned a
+    quarter about X, so that every level's spikes stand in a plane across the last one's."""
+    third, spike = 1.0 / 3.0, math.radians(60.0)
+    rise = math.sqrt(3.0) / 6.0
+    return [((-2 * third, 0.0, 0.0), (0.0, 0.0, 0.0), (third,) * 3),
+            ((-1.0 / 6.0, 0.0, rise), (math.pi / 2, -spike, 0.0), (third,) * 3),
+            ((1.0 / 6.0, 0.0, rise), (math.pi / 2, spike, 0.0), (third,) * 3),
+            ((2 * third, 0.0, 0.0), (0.0, 0.0, 0.0), (third,) * 3)]
+
+
+# IFS shapes: (location, rotation, scale) per map.
+IFS_SHAPES = {
+    'SIERPINSKI': [((0.5 * x, 0.5 * y, 0.5 * z), (0.0, 0.0, 0.0), (0.5, 0.5, 0.5))
+                   for x, y, z in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1))],
+    'MENGER': _menger_maps(),
+    'KOCH': _koch_maps(),
+}
+IFS_SHAPE_ITEMS = [
+    ('SIERPINSKI', "Sierpinski Tetrahedron", "Four maps of ratio 1/2 toward a tetrahedron's corners", 0),
+    ('MENGER', "Menger Sponge", "Twenty maps of ratio 1/3: a cube without its face and body centres", 1),
+    ('KOCH', "Koch Curve", "The Koch curve's four maps of ratio 1/3, the spikes turned a quarter at each level "
+     "(a thin set: give it a fixed threshold)", 2),
+]
+
+
+def set_ifs_maps(props, shape):
+    props.ifs_maps.clear()
+    for location, rotation, scale in IFS_SHAPES[shape]:
+        m = props.ifs_maps.add()
+        m.location, m.rotation, m.scale = location, rotation, scale
+    props.ifs_active_map = 0
+
+
 class UNBOUND_OT_fractal_add(bpy.types.Operator):
     """Add an Unbound fractal object: an empty whose sphere shows the set's bounding sphere"""
     bl_idname = "object.unbound_fractal_add"
-    bl_label = "Quaternion Julia Fractal"
+    bl_label = "Add Unbound Fractal"
     bl_options = {'REGISTER', 'UNDO'}
 
+    kind: bpy.props.EnumProperty(name="Kind", description="Family of fractal", items=FRACTAL_KINDS,
+                                 default='QUATERNION_JULIA')
     mu: bpy.props.FloatVectorProperty(name="Mu", description="Constant mu of z^2 + mu (1, i, j, k)", size=4,
                                       default=(-0.2, 0.8, 0.0, 0.0), soft_min=-2.0, soft_max=2.0)
     location: bpy.props.FloatVectorProperty(name="Location", description="Where to place the fractal",
@@ -88,11 +131,18 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
         if not all(abs(c) <= 1000.0 for c in self.mu):
             self.report({'ERROR'}, "Mu components must lie within [-1000, 1000]")
             return {'CANCELLED'}
-        ob = bpy.data.objects.new("Quaternion Julia", None)
+        name = next(item[1] for item in FRACTAL_KINDS if item[0] == self.kind)
+        ob = bpy.data.objects.new(name, None)
         ob.empty_display_type = 'SPHERE'
-        ob.unbound.is_fractal = True
-        ob.unbound.mu = self.mu
-        ob.empty_display_size = bounding_radius(self.mu)
+        props = ob.unbound
+        props.is_fractal = True
+        props.kind = self.kind
+        props.mu = self.mu
+        if self.kind == 'IFS':
+            set_ifs_maps(props, 'SIERPINSKI')
+        elif self.kind in {'QUATERNION_MANDELBROT', 'CUBIC_LOCUS'}:
+            props.max_iterations = 24
+        ob.empty_display_size = display_radius(props) or 2.0
         ob.location = context.scene.cursor.location if self.use_cursor else self.location
         collection = context.collection or context.scene.collection
         collection.objects.link(ob)
@@ -100,6 +150,58 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
             other.select_set(False)
         ob.select_set(True)
         context.view_layer.objects.active = ob
+        return {'FINISHED'}
+
+
+class IFSOperator:
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return utils.is_fractal(context.object) and context.object.unbound.kind == 'IFS'
+
+
+class UNBOUND_OT_ifs_shape(IFSOperator, bpy.types.Operator):
+    """Replace the IFS's maps with a classic shape's"""
+    bl_idname = "object.unbound_ifs_shape"
+    bl_label = "Load IFS Shape"
+
+    shape: bpy.props.EnumProperty(name="Shape", description="Set of maps to load", items=IFS_SHAPE_ITEMS)
+
+    def execute(self, context):
+        set_ifs_maps(context.object.unbound, self.shape)
+        return {'FINISHED'}
+
+
+class UNBOUND_OT_ifs_map_add(IFSOperator, bpy.types.Operator):
+    """Add a map to the IFS (a copy of the active one, or a half-size map)"""
+    bl_idname = "object.unbound_ifs_map_add"
+    bl_label = "Add IFS Map"
+
+    def execute(self, context):
+        props = context.object.unbound
+        if len(props.ifs_maps) >= 32:
+            self.report({'ERROR'}, "An IFS has at most 32 maps")
+            return {'CANCELLED'}
+        source = props.ifs_maps[props.ifs_active_map] if props.ifs_active_map < len(props.ifs_maps) else None
+        m = props.ifs_maps.add()
+        if source is not None:
+            m.location, m.rotation, m.scale = source.location, source.rotation, source.scale
+        props.ifs_active_map = len(props.ifs_maps) - 1
+        return {'FINISHED'}
+
+
+class UNBOUND_OT_ifs_map_remove(IFSOperator, bpy.types.Operator):
+    """Remove the active map from the IFS"""
+    bl_idname = "object.unbound_ifs_map_remove"
+    bl_label = "Remove IFS Map"
+
+    def execute(self, context):
+        props = context.object.unbound
+        if not 0 <= props.ifs_active_map < len(props.ifs_maps):
+            return {'CANCELLED'}
+        props.ifs_maps.remove(props.ifs_active_map)
+        props.ifs_active_map = max(0, min(props.ifs_active_map, len(props.ifs_maps) - 1))
         return {'FINISHED'}
 
 
@@ -180,11 +282,13 @@ class UNBOUND_OT_setup_compositing(bpy.types.Operator):
 
 
 def menu_add(self, context):
-    self.layout.operator(UNBOUND_OT_fractal_add.bl_idname, text="Unbound Fractal", icon='MESH_UVSPHERE')
+    self.layout.operator_menu_enum(UNBOUND_OT_fractal_add.bl_idname, "kind", text="Unbound Fractal",
+                                   icon='MESH_UVSPHERE')
 
 
 classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_setup_compositing, UNBOUND_MT_fractal_presets,
-           UNBOUND_OT_fractal_preset_add, UNBOUND_OT_color_ramp_add)
+           UNBOUND_OT_fractal_preset_add, UNBOUND_OT_color_ramp_add, UNBOUND_OT_ifs_shape, UNBOUND_OT_ifs_map_add,
+           UNBOUND_OT_ifs_map_remove)
 
 
 def register():

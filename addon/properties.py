@@ -4,13 +4,39 @@ indices so that .blend files survive renames."""
 import math
 
 import bpy
-from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty,
-                       PointerProperty)
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
+                       IntProperty, PointerProperty)
+from mathutils import Euler, Matrix
 
 from . import passes, utils
 
+# Section 5: the paper's other families. "Exact": the distance estimate never oversteps the set
+# (proven); "empirical": no such proof exists, so Unbound marches them with half steps, a step cap
+# and bisection of every hit.
 FRACTAL_KINDS = [
-    ('QUATERNION_JULIA', "Quaternion Julia", "3-D slice of the Julia set of z^2 + mu over the quaternions", 0),
+    ('QUATERNION_JULIA', "Quaternion Julia", "3-D slice of the Julia set of z^2 + mu over the quaternions "
+     "(exact distance estimate)", 0),
+    ('QUATERNION_MANDELBROT', "Quaternion Mandelbrot", "3-D slice of the Mandelbrot set over the quaternions: "
+     "z starts at 0 and mu is the point (exact distance estimate)", 1),
+    ('JULIA_STACK', "Julia Stack", "Complex Julia sets of z^2 + c stacked along a path of c, the path along "
+     "Z (section 5.1; empirical estimate, marched with care)", 2),
+    ('CUBIC_LOCUS', "Cubic Connectedness Locus", "Parameters (a, b) of z^3 - 3a^2 z + b whose critical orbits "
+     "stay bounded, a 3-D slice of 4-D (section 5.2; empirical estimate, marched with care)", 3),
+    ('IFS', "Iterated Function System", "Attractor of 3-D affine maps (section 5.3; exact bound from "
+     "bounding spheres through the map hierarchy)", 4),
+]
+EXACT_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT', 'IFS'}
+SLICED_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT', 'CUBIC_LOCUS'}
+PATH_MODES = [
+    ('LINE', "Line", "c moves along a straight segment from C Start (bottom) to C End (top)", 0),
+    ('CURVE', "Curve", "c follows a curve object from its first point (bottom) to its last (top), "
+     "x = Re c and y = Im c in the curve's own coordinates", 1),
+]
+CUBIC_COMPONENTS = [
+    ('PLUS', "C+", "Parameters whose critical orbit from +a stays bounded", 0),
+    ('MINUS', "C-", "Parameters whose critical orbit from -a stays bounded", 1),
+    ('UNION', "C+ or C-", "Either critical orbit stays bounded: the union of both components", 2),
+    ('BOTH', "C+ and C-", "Both critical orbits stay bounded: the connectedness locus itself", 3),
 ]
 THRESHOLD_MODES = [
     ('PIXEL', "Pixel", "Hit threshold follows the pixel footprint at each depth (detail adapts to resolution)", 0),
@@ -49,10 +75,22 @@ def bounding_radius(mu):
     return 0.5 * (1.0 + math.sqrt(1.0 + 4.0 * math.sqrt(sum(c * c for c in mu))))
 
 
+def display_radius(props, depsgraph=None):
+    """Radius around the object's origin of a sphere holding its set: the native core's bounding
+    ball; None while the settings are invalid (the render then reports why)."""
+    if props.kind == 'QUATERNION_JULIA':
+        return bounding_radius(props.mu)
+    try:
+        bound = utils.native().describe(native_parameters(props, depsgraph, with_ramp=False))
+    except (ImportError, ValueError, TypeError):
+        return None
+    return math.sqrt(sum(c * c for c in bound["bound_center"])) + max(bound["bound_radius"], 0.0)
+
+
 def _sync_display_size(ob):
     if utils.is_fractal(ob) and not ob.library:
-        radius = bounding_radius(ob.unbound.mu)
-        if abs(ob.empty_display_size - radius) > 1e-6:
+        radius = display_radius(ob.unbound)
+        if radius is not None and abs(ob.empty_display_size - radius) > 1e-6:
             ob.empty_display_size = radius
 
 
@@ -93,6 +131,23 @@ def slice_frame(offset, rotation):
     return basis, origin
 
 
+class UnboundIFSMap(bpy.types.PropertyGroup):
+    """One affine map x -> T R S x of an IFS: scale, then rotate, then move"""
+    location: FloatVectorProperty(name="Location", description="Where the map moves the origin, in object units",
+                                  size=3, subtype='TRANSLATION', min=-1e6, max=1e6, soft_min=-10.0, soft_max=10.0)
+    rotation: FloatVectorProperty(name="Rotation", description="Rotation after the scale (XYZ Euler)", size=3,
+                                  subtype='EULER')
+    scale: FloatVectorProperty(name="Scale", description="Contraction along each axis; negative mirrors, and "
+                               "every factor stays below 1 so the map contracts", size=3, default=(0.5, 0.5, 0.5),
+                               min=-0.99, max=0.99, subtype='XYZ')
+
+
+def ifs_map_rows(m):
+    """The native core's 3x4 rows [A | t] of an IFS map."""
+    matrix = Matrix.LocRotScale(m.location, Euler(m.rotation, 'XYZ'), m.scale)
+    return [list(matrix[r]) for r in range(3)]
+
+
 class UnboundObjectSettings(bpy.types.PropertyGroup):
     is_fractal: BoolProperty(name="Fractal", description="This empty is an Unbound fractal object",
                              default=False, options=set())
@@ -110,6 +165,27 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
     slice_rotation: FloatVectorProperty(name="Slice Rotation", description="Rotation of the slice's x, y and z "
                                         "axes toward the fourth (k) axis", size=3, subtype='EULER',
                                         default=(0.0, 0.0, 0.0))
+    path_mode: EnumProperty(name="C Path", description="How c varies along a Julia stack", items=PATH_MODES,
+                            default='LINE')
+    c_start: FloatVectorProperty(name="C Start", description="c at the bottom of the stack (real, imaginary)",
+                                 size=2, default=(-1.5, 0.0), soft_min=-2.0, soft_max=2.0, min=-1000.0, max=1000.0,
+                                 step=1, precision=4)
+    c_end: FloatVectorProperty(name="C End", description="c at the top of the stack (real, imaginary)", size=2,
+                               default=(0.25, 0.0), soft_min=-2.0, soft_max=2.0, min=-1000.0, max=1000.0, step=1,
+                               precision=4)
+    path_curve: PointerProperty(name="Curve", description="Curve object whose shape is the path of c",
+                                type=bpy.types.Object)
+    stack_height: FloatProperty(name="Height", description="Height of the stack along Z in object units",
+                                default=2.0, min=1e-6, max=1e6, soft_max=10.0, subtype='DISTANCE')
+    cubic_component: EnumProperty(name="Component", description="Which critical orbits must stay bounded",
+                                  items=CUBIC_COMPONENTS, default='BOTH')
+    extent: FloatProperty(name="Extent", description="Radius of the 4-D ball the locus is cut to (C+ and C- "
+                          "alone are unbounded)", default=2.0, min=1e-6, max=1000.0, soft_max=4.0)
+    ifs_maps: CollectionProperty(name="Maps", description="The affine maps of the IFS", type=UnboundIFSMap)
+    ifs_active_map: IntProperty(name="Active Map", description="Map shown for editing", default=0, min=0,
+                                options=set())
+    ifs_depth: IntProperty(name="Depth", description="Levels of the map hierarchy; the attractor is drawn as "
+                           "the balls of the deepest level", default=6, min=0, max=16, soft_max=10)
     max_iterations: IntProperty(name="Iterations", description="Maximum iterations of z^2 + mu per point",
                                 default=16, min=1, max=10000, soft_max=200)
     bailout: FloatProperty(name="Bailout", description="Escape radius; never below the set's bounding radius",
@@ -206,20 +282,61 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
                        items=SIMD_MODES, default='AUTO')
 
 
-def native_parameters(props):
-    """The native core's object dict for fractal settings `props` (without the world matrix).
+def native_parameters(props, depsgraph=None, with_ramp=True):
+    """The native core's object dict for fractal settings `props` (without the world matrix). A curve
+    c-path is read from the evaluated curve when a depsgraph is given, else its control points.
     (A module function: a method on a registered PropertyGroup makes bpy 4.2 crash at exit.)"""
     basis, origin = slice_frame(props.slice_offset, props.slice_rotation)
-    return dict(
-        kind="quaternion_julia", mu=tuple(props.mu), theta=props.theta, slice_basis=basis,
+    out = dict(
+        kind=props.kind.lower(), mu=tuple(props.mu), theta=props.theta, slice_basis=basis,
         slice_origin=origin, max_iterations=props.max_iterations,
         bailout=props.bailout, epsilon_mode=props.threshold_mode.lower(), epsilon=props.epsilon,
         detail=props.detail, step_factor=props.step_factor, max_step=props.max_step, max_steps=props.max_steps,
         bisection_steps=props.bisection_steps, color=tuple(props.color),
         normal_method=props.normal_method.lower(), normal_alpha=props.normal_alpha,
         normal_delta=props.normal_delta, reflectivity=props.reflectivity, color_mode=props.color_mode.lower(),
-        color_ramp=ramp_table(props.color_ramp_texture) if props.color_mode != 'BASE' else None,
+        color_ramp=ramp_table(props.color_ramp_texture) if with_ramp and props.color_mode != 'BASE' else None,
         ramp_scale=props.ramp_scale, ramp_offset=props.ramp_offset)
+    if props.kind == 'JULIA_STACK':
+        out.update(path=c_path(props, depsgraph), stack_height=props.stack_height)
+    elif props.kind == 'CUBIC_LOCUS':
+        out.update(cubic_component=props.cubic_component.lower(), extent=props.extent)
+    elif props.kind == 'IFS':
+        if not len(props.ifs_maps):
+            raise ValueError("an IFS needs at least one map: add one, or pick a preset")
+        out.update(maps=[ifs_map_rows(m) for m in props.ifs_maps], ifs_depth=props.ifs_depth)
+    return out
+
+
+PATH_POINTS = 256  # the native core's limit on c-path points
+
+
+def c_path(props, depsgraph=None):
+    """Points (Re c, Im c) of a Julia stack's path, bottom to top."""
+    if props.path_mode == 'LINE':
+        return [tuple(props.c_start), tuple(props.c_end)]
+    curve = props.path_curve
+    if curve is None:
+        raise ValueError("the Julia stack's c-path is a curve, but no curve object is set")
+    if curve.type != 'CURVE':
+        raise ValueError("the Julia stack's c-path object '%s' is not a curve" % curve.name)
+    if depsgraph is not None:
+        # The evaluated curve (resolution, modifiers, animation) as Blender tessellates it.
+        evaluated = curve.evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        try:
+            points = [(v.co.x, v.co.y) for v in mesh.vertices]
+        finally:
+            evaluated.to_mesh_clear()
+    else:
+        points = [(p.co.x, p.co.y) for spline in curve.data.splines
+                  for p in (spline.bezier_points if spline.type == 'BEZIER' else spline.points)]
+    if not points:
+        raise ValueError("the c-path curve '%s' has no points" % curve.name)
+    if len(points) > PATH_POINTS:
+        step = (len(points) - 1) / (PATH_POINTS - 1)
+        points = [points[round(i * step)] for i in range(PATH_POINTS)]
+    return points
 
 
 RAMP_SIZE = 64
@@ -243,7 +360,7 @@ UnboundViewLayerSettings = type("UnboundViewLayerSettings", (bpy.types.PropertyG
     "__doc__": "Which of Unbound's passes this view layer writes",
 })
 
-classes = (UnboundObjectSettings, UnboundSceneSettings, UnboundViewLayerSettings)
+classes = (UnboundIFSMap, UnboundObjectSettings, UnboundSceneSettings, UnboundViewLayerSettings)
 
 
 def register():

@@ -2,7 +2,7 @@
 (passes). Shown only when Unbound is the render engine."""
 import bpy
 
-from . import passes, utils
+from . import passes, properties, utils
 
 
 class UnboundPanel:
@@ -36,18 +36,62 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
         row.operator("unbound.fractal_preset_add", text="", icon='ADD')
         row.operator("unbound.fractal_preset_add", text="", icon='REMOVE').remove_active = True
         layout.prop(props, "kind")
-        # Label the quaternion's components as Blender labels Location X, Y, Z: without a subtype a
-        # 4-vector shows one "Mu" label over four unlabelled fields.
-        col = layout.column(align=True)
-        for i, text in enumerate(("Mu 1", "i", "j", "k")):
-            col.prop(props, "mu", index=i, text=text)
-        layout.prop(props, "theta")
+        # Section 5: say which estimates are proven not to overstep the set.
+        exact = props.kind in properties.EXACT_KINDS
+        layout.label(text="Exact distance estimate" if exact else "Empirical estimate: marched with half steps",
+                     icon='CHECKMARK' if exact else 'INFO')
+        if props.kind == 'QUATERNION_JULIA':
+            # Label the quaternion's components as Blender labels Location X, Y, Z: without a subtype
+            # a 4-vector shows one "Mu" label over four unlabelled fields.
+            col = layout.column(align=True)
+            for i, text in enumerate(("Mu 1", "i", "j", "k")):
+                col.prop(props, "mu", index=i, text=text)
+        elif props.kind == 'JULIA_STACK':
+            layout.prop(props, "path_mode")
+            if props.path_mode == 'LINE':
+                for name in ("c_start", "c_end"):
+                    col = layout.column(align=True)
+                    label = props.bl_rna.properties[name].name
+                    col.prop(props, name, index=0, text=label + " Re")
+                    col.prop(props, name, index=1, text="Im")
+            else:
+                layout.prop(props, "path_curve")
+            layout.prop(props, "stack_height")
+        elif props.kind == 'CUBIC_LOCUS':
+            layout.prop(props, "cubic_component")
+            layout.prop(props, "extent")
+        elif props.kind == 'IFS':
+            row = layout.row()
+            row.template_list("UNBOUND_UL_ifs_maps", "", props, "ifs_maps", props, "ifs_active_map", rows=4)
+            col = row.column(align=True)
+            col.operator("object.unbound_ifs_map_add", icon='ADD', text="")
+            col.operator("object.unbound_ifs_map_remove", icon='REMOVE', text="")
+            col.separator()
+            col.operator_menu_enum("object.unbound_ifs_shape", "shape", icon='DOWNARROW_HLT', text="")
+            if 0 <= props.ifs_active_map < len(props.ifs_maps):
+                m = props.ifs_maps[props.ifs_active_map]
+                layout.column().prop(m, "location")
+                layout.column().prop(m, "rotation")
+                layout.column().prop(m, "scale")
+            layout.prop(props, "ifs_depth")
+        if props.kind in properties.SLICED_KINDS:
+            layout.prop(props, "theta")
         layout.prop(props, "color")
+
+
+class UNBOUND_UL_ifs_maps(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        layout.label(text="Map %d" % (index + 1), icon='OBJECT_ORIGIN')
+        layout.label(text="%.3g, %.3g, %.3g" % tuple(item.location))
 
 
 class UNBOUND_PT_fractal_slice(FractalPanel, bpy.types.Panel):
     bl_label = "Slice"
     bl_parent_id = "UNBOUND_PT_fractal"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.object.unbound.kind in properties.SLICED_KINDS
 
     def draw(self, context):
         layout = self.layout
@@ -68,8 +112,9 @@ class UNBOUND_PT_fractal_quality(FractalPanel, bpy.types.Panel):
         layout.use_property_split = True
         props = context.object.unbound
         col = layout.column()
-        col.prop(props, "max_iterations")
-        col.prop(props, "bailout")
+        if props.kind != 'IFS':  # the IFS has a depth, not an iteration
+            col.prop(props, "max_iterations")
+            col.prop(props, "bailout")
         col.prop(props, "threshold_mode")
         col.prop(props, "detail" if props.threshold_mode == 'PIXEL' else "epsilon")
         col = layout.column()
@@ -238,7 +283,7 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
                 col.prop(props, p.toggle)
 
 
-classes = (UNBOUND_PT_fractal, UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
+classes = (UNBOUND_UL_ifs_maps, UNBOUND_PT_fractal, UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
            UNBOUND_PT_render, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects, UNBOUND_PT_render_sea,
            UNBOUND_PT_light, UNBOUND_PT_passes)
 

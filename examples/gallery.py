@@ -68,6 +68,18 @@ VIEWS = {
     # The well-known complex Julia sets lifted into the quaternions: three-quarter views.
     "basilica": dict(camera=((-1.0, -4.0, 2.4), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
     "siegel_disk": dict(camera=((-1.75, -3.3, 2.6), (0.0, 0.0, -0.15), 50.0), sun=SIDE_SUN, world=DARK),
+    # Section 5's families. Julia stacks stand 2 units tall on the complex plane (x, y); c runs up Z.
+    "julia_stack_fig_4": dict(camera=((-3.2, -5.2, 3.0), (0.0, 0.0, -0.1), 50.0), sun=SIDE_SUN, world=DARK),
+    "julia_stack_rabbit_to_dendrite": dict(camera=((-3.0, -4.6, 2.8), (0.0, 0.0, -0.1), 50.0), sun=SIDE_SUN,
+                                           world=DARK),
+    # The cubic locus: (Re a, Im a, Re b) at Im b = 0, cut to |(a, b)| <= extent.
+    "cubic_connectedness_locus": dict(camera=((-2.2, -3.4, 2.0), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "cubic_locus_c_plus": dict(camera=((-2.6, -4.0, 2.4), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "quaternion_mandelbrot": dict(camera=((-1.2, -3.6, 2.0), (-0.5, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    # IFS attractors in the cube [-1, 1]^3 (the Koch curve spans X, its spikes rise along Z and Y).
+    "sierpinski_tetrahedron": dict(camera=((-2.4, -4.2, 1.9), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "menger_sponge": dict(camera=((-3.0, -4.4, 2.9), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "koch_curve": dict(camera=((0.4, -2.9, 1.3), (0.0, 0.0, 0.15), 50.0), sun=SIDE_SUN, world=DARK),
 }
 
 
@@ -136,6 +148,14 @@ def render_png(scene, path):
 
 def describe(ob):
     u = ob.unbound
+    if u.kind == 'JULIA_STACK':
+        return "Julia stack, c from %s to %s" % (tuple(round(c, 4) for c in u.c_start), tuple(round(c, 4) for c in u.c_end))
+    if u.kind == 'CUBIC_LOCUS':
+        return "cubic connectedness locus, %s, extent %g" % (u.cubic_component, u.extent)
+    if u.kind == 'IFS':
+        return "IFS of %d maps, depth %d" % (len(u.ifs_maps), u.ifs_depth)
+    if u.kind == 'QUATERNION_MANDELBROT':
+        return "quaternion Mandelbrot slice"
     return "mu = (%s), theta = %.0f deg" % (", ".join("%g" % round(c, 4) for c in u.mu), math.degrees(u.theta))
 
 
