@@ -80,3 +80,64 @@ def sphere_hits(origin, direction, center=(0.0, 0.0, 0.0), radius=1.0):
 @pytest.fixture
 def camera():
     return make_camera()
+
+
+def pixel_rays(camera):
+    """The native core's own pixel-centre rays (uc.camera_ray), as float64 arrays (H, W, 3)."""
+    h, w = camera["height"], camera["width"]
+    origin, direction = np.empty((h, w, 3)), np.empty((h, w, 3))
+    for y in range(h):
+        for x in range(w):
+            o, d, _, _ = uc.camera_ray(camera, x + 0.5, y + 0.5)
+            origin[y, x], direction[y, x] = o, d
+    return origin, direction
+
+
+def dense_sampling(camera, classify, center, radius, sample, solid=4):
+    """Float64 dense sampling of each pixel's ray through the ball (center, radius).
+    classify(points (n, 3)) -> (member, shell): booleans, in the set (its orbit stays bounded)
+    and in the threshold shell {d < eps} of the float64 estimate. Returns (t_solid, t_shell) per
+    pixel: the end of the first run of at least `solid` consecutive member samples (a piece of
+    the set thicker than a grazing sliver), and the first shell sample; inf where there is none."""
+    origin, direction = pixel_rays(camera)
+    h, w = origin.shape[:2]
+    t_solid = np.full((h, w), np.inf)
+    t_shell = np.full((h, w), np.inf)
+    for y in range(h):
+        for x in range(w):
+            o, d = origin[y, x], direction[y, x]
+            rel = o - np.asarray(center, np.float64)
+            b = rel @ d
+            disc = b * b - (rel @ rel - radius * radius)
+            if disc < 0:
+                continue
+            ts = np.arange(max(-b - np.sqrt(disc), 0.0), -b + np.sqrt(disc), sample)
+            member, shell = classify(o + ts[:, None] * d)
+            if shell.any():
+                t_shell[y, x] = ts[np.argmax(shell)]
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], member.astype(np.int8), [0]])))
+            for start, stop in zip(edges[0::2], edges[1::2]):
+                if stop - start >= solid:
+                    t_solid[y, x] = ts[stop - 1]
+                    break
+    return t_solid, t_shell
+
+
+def check_no_passthrough(camera, passes, t_solid, t_shell, slack, agree_tol, agree_fraction, min_hits=20):
+    """Every ray whose float64 sampling finds a solid piece of the set hits, and not beyond that
+    piece (no ray passes through); hits and the first samples in the float64 threshold shell
+    agree for most rays. Returns the counts for messages."""
+    origin, _ = pixel_rays(camera)
+    hit = passes["alpha"][..., 0] == 1
+    t_hit = np.linalg.norm(passes["position"] - origin, axis=-1)
+    solid = np.isfinite(t_solid)
+    assert solid.sum() >= min_hits, "too few reference hits for a meaningful test"
+    missed = np.argwhere(solid & ~hit)
+    assert len(missed) == 0, f"{len(missed)} rays passed through the set, e.g. pixel {missed[0][::-1]}"
+    beyond = (t_hit - t_solid)[solid]
+    assert beyond.max() < slack, f"a hit lies {beyond.max():.4f} beyond the first solid piece of the set"
+    found = np.isfinite(t_shell) | hit
+    close = (np.abs(t_hit - t_shell) < agree_tol) & hit
+    assert close[found].mean() > agree_fraction, \
+        f"only {close[found].mean():.3f} of hits agree with the float64 sampling of d < eps"
+    return dict(solid=int(solid.sum()), agree=float(close[found].mean()))

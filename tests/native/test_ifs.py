@@ -1,0 +1,168 @@
+"""3-D iterated function systems (kind "ifs", section 5.3): the distance bound through the
+bounding-ball hierarchy of native/src/ifs.c.
+
+References (reference/families64.py, float64, independent of the native code): attractor points
+by the chaos game, the ball hierarchy rebuilt with SVD norms, its leaf balls enumerated, and ray
+entries into those balls in closed form."""
+import math
+
+import numpy as np
+import pytest
+import unbound_core as uc
+
+from conftest import make_camera, pixel_rays, render
+from reference import families64 as ref
+
+
+def tetrahedron():
+    return [[[0.5, 0, 0, 0.5 * x], [0, 0.5, 0, 0.5 * y], [0, 0, 0.5, 0.5 * z]]
+            for x, y, z in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
+
+
+def menger():
+    t = 1.0 / 3.0
+    return [[[t, 0, 0, 2 * t * x], [0, t, 0, 2 * t * y], [0, 0, t, 2 * t * z]]
+            for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if abs(x) + abs(y) + abs(z) > 1]
+
+
+def rotation(axis, angle):
+    c, s = math.cos(angle), math.sin(angle)
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    r = np.eye(3)
+    r[i, i], r[i, j], r[j, i], r[j, j] = c, -s, s, c
+    return r
+
+
+def koch():
+    """The add-on's Koch-like set: the Koch curve's maps, the spikes turned a quarter about x."""
+    t, rise, spike = 1.0 / 3.0, math.sqrt(3) / 6, math.radians(60)
+    maps = []
+    for loc, rot in [((-2 * t, 0, 0), np.eye(3)), ((-1 / 6, 0, rise), rotation(1, -spike) @ rotation(0, math.pi / 2)),
+                     ((1 / 6, 0, rise), rotation(1, spike) @ rotation(0, math.pi / 2)), ((2 * t, 0, 0), np.eye(3))]:
+        a = rot * t
+        maps.append(np.column_stack([a, loc]).tolist())
+    return maps
+
+
+def random_affine(seed=4, count=5):
+    """General affine maps: rotations, non-uniform scales (one mirrored), shear, spread out."""
+    rng = np.random.default_rng(seed)
+    maps = []
+    for k in range(count):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        a = q @ np.diag(rng.uniform(0.25, 0.55, 3) * (-1 if k == 0 else 1)) @ (np.eye(3) + 0.2 * rng.normal(size=(3, 3)))
+        a *= 0.6 / max(0.6, np.linalg.svd(a, compute_uv=False)[0])
+        maps.append(np.column_stack([a, rng.uniform(-1, 1, 3)]).tolist())
+    return maps
+
+
+SYSTEMS = {"sierpinski": tetrahedron(), "menger": menger(), "koch": koch(), "random affine": random_affine()}
+
+
+def estimate(obj, points):
+    pts = np.ascontiguousarray(points, np.float32)
+    est, it = np.empty(len(pts), np.float32), np.empty(len(pts), np.float32)
+    uc.estimate(obj, pts, est, it)
+    return est, it, pts.astype(np.float64)
+
+
+def query_points(system, rng, count=1000):
+    """Points all around the attractor: uniform in its bounding box (grown), and near it."""
+    samples = system.chaos_game(count, seed=int(rng.integers(1 << 30)))
+    lo, hi = samples.min(0) - 0.5, samples.max(0) + 0.5
+    near = samples + rng.normal(size=samples.shape) * rng.uniform(0.001, 0.2, (count, 1))
+    return np.concatenate([rng.uniform(lo, hi, (count, 3)), near])
+
+
+def test_exact_and_bounding_ball():
+    d = uc.describe(dict(kind="ifs", maps=menger()))
+    assert d["exact"] and d["kind"] == "ifs"
+    # The Menger maps fix the cube's corners and edge midpoints; their centroid is 0, and the
+    # smallest ball they map into itself is the cube's circumscribed ball.
+    np.testing.assert_allclose(d["bound_center"], 0, atol=1e-12)
+    assert d["bound_radius"] == pytest.approx(math.sqrt(3), rel=1e-8)
+
+
+@pytest.mark.parametrize("name", list(SYSTEMS))
+def test_bound_never_exceeds_distance_to_the_attractor(name):
+    """The bound at every depth is at most the distance to any attractor point (chaos game,
+    20000 points): the unbounding-sphere property that makes the march safe."""
+    rng = np.random.default_rng(1)
+    system = ref.IFS(SYSTEMS[name])
+    attractor = system.chaos_game(20000, seed=2)
+    for depth in (0, 2, 5):
+        est, _, pts = estimate(dict(kind="ifs", maps=SYSTEMS[name], ifs_depth=depth), query_points(system, rng))
+        nearest = ref.leaf_distance(pts, attractor, np.zeros(len(attractor)))
+        # float32 rounding of the returned bound: relative 1e-6.
+        assert np.all(est <= nearest + 1e-6 * (1 + np.abs(nearest))), \
+            f"depth {depth}: bound exceeds the attractor distance by {np.max(est - nearest):.3g}"
+
+
+@pytest.mark.parametrize("name,depth", [("sierpinski", 4), ("menger", 2), ("koch", 2), ("random affine", 3)])
+def test_bound_is_the_leaf_balls_distance(name, depth):
+    """Against the enumerated leaf balls of the same depth: inside them (and near them) the bound is
+    their signed distance; farther out the hierarchy may settle early, within a factor 1.5."""
+    rng = np.random.default_rng(3)
+    system = ref.IFS(SYSTEMS[name])
+    centres, radii = system.leaves(depth)
+    est, _, pts = estimate(dict(kind="ifs", maps=SYSTEMS[name], ifs_depth=depth), query_points(system, rng))
+    leaf = ref.leaf_distance(pts, centres, radii)
+    tol = 1e-5 * (1 + np.abs(leaf))
+    assert np.all(est <= leaf + tol)
+    outside = leaf > 0
+    assert np.all(est[outside] >= leaf[outside] / 1.5 - tol[outside])
+    inside = leaf < 0
+    assert inside.sum() > 100
+    np.testing.assert_allclose(est[inside], leaf[inside], atol=1e-5)
+
+
+def ray_entry(origin, direction, centres, radii):
+    """Closed-form first entry t of each ray into the union of balls (inf: none)."""
+    rel = origin[:, None, :] - centres[None]
+    b = np.einsum("rkc,rc->rk", rel, direction)
+    c = np.einsum("rkc,rkc->rk", rel, rel) - radii[None] ** 2
+    disc = b * b - c
+    t = np.where(disc >= 0, -b - np.sqrt(np.maximum(disc, 0)), np.inf)
+    t = np.where((disc >= 0) & (t < 0) & (-b + np.sqrt(np.maximum(disc, 0)) >= 0), 0.0, t)
+    return np.where(t >= 0, t, np.inf).min(axis=1)
+
+
+@pytest.mark.parametrize("name,depth", [("sierpinski", 4), ("menger", 2), ("koch", 2), ("random affine", 3)])
+def test_hits_are_the_leaf_balls(name, depth):
+    """Rendered with a fixed threshold eps: every ray that enters a leaf ball hits, never beyond
+    its entry into the balls, for nearly every ray at its entry into the balls grown by eps
+    (bisection refines it; a ray grazing the eps-shell may pass that sliver), and no ray hits that
+    stays eps away."""
+    eps = 2e-3
+    system = ref.IFS(SYSTEMS[name])
+    centres, radii = system.leaves(depth)
+    # The Koch curve is thin: a closer view.
+    eye = (0.3, -2.2, 0.9) if name == "koch" else (-1.8, -3.6, 1.6)
+    cam = make_camera(40, 30, eye=eye, target=tuple(system.center), fov_y=0.75)
+    obj = dict(kind="ifs", maps=SYSTEMS[name], ifs_depth=depth, epsilon_mode="fixed", epsilon=eps)
+    passes, _ = render(cam, [obj], ["alpha", "position"])
+    origin, direction = (a.reshape(-1, 3) for a in pixel_rays(cam))
+    t_set = ray_entry(origin, direction, centres, radii)
+    t_shell = ray_entry(origin, direction, centres, radii + eps)
+    hit = passes["alpha"].reshape(-1) == 1
+    t_hit = np.linalg.norm(passes["position"].reshape(-1, 3) - origin, axis=1)
+    assert np.isfinite(t_set).sum() > 100
+    assert not np.any(np.isfinite(t_set) & ~hit), "a ray passed through a leaf ball"
+    assert not np.any(hit & ~np.isfinite(ray_entry(origin, direction, centres, radii + 1.01 * eps)))
+    found = np.isfinite(t_set)
+    assert np.all(t_hit[found] <= t_set[found] + 1e-4)
+    assert np.mean(np.abs(t_hit[found] - t_shell[found]) < 2e-4) > 0.98
+
+
+def test_bad_maps_are_rejected():
+    expanding = [[[1.2, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 0.5, 0]]]
+    with pytest.raises(ValueError, match="contraction"):
+        uc.describe(dict(kind="ifs", maps=expanding))
+    with pytest.raises(ValueError, match="1 to 32"):
+        uc.describe(dict(kind="ifs", maps=[]))
+    with pytest.raises(ValueError, match="1 to 32"):
+        uc.describe(dict(kind="ifs", maps=tetrahedron() * 9))
+    with pytest.raises(ValueError, match="finite|number"):
+        uc.describe(dict(kind="ifs", maps=[[[0.5, 0, 0, float("nan")], [0, 0.5, 0, 0], [0, 0, 0.5, 0]]]))
+    with pytest.raises(ValueError):
+        uc.describe(dict(kind="ifs", ifs_depth=17))
