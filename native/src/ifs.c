@@ -101,84 +101,110 @@ const char *ub_ifs_prepare(ub_object *o)
     return NULL;
 }
 
+/* A node waiting on the stack: its map index under its parent (the parent's composed map is
+ * levels[depth - 1] when it is popped: the stack is last-in first-out, so no other node of the
+ * parent's depth has been expanded since), its bound and its place in the hierarchy. */
 typedef struct {
-    double lin[3][3], off[3]; /* the composed map w_word: x -> lin x + off */
-    double scale;             /* s_word */
-    double lower;             /* |p - w_word(c)| - s_word R */
-    double address, span;     /* where the word lies in [0, 1): sum of i_k / m^k, and m^-depth */
-    int depth;
-} ifs_node;
+    double lower;
+    double address;
+    int map, depth;
+} ifs_entry;
+
+/* The composed map w_word of the node last expanded at one depth: x -> lin x + off, s_word. */
+typedef struct {
+    double lin[3][3], off[3];
+    double scale;
+} ifs_level;
 
 /* A node is settled, not split further, once its ball is small against its distance: every
- * point of it is then within (1 + UB_IFS_SETTLE) of the bound, which is all the marcher needs
- * far from the surface. Near the surface the bound goes to 0 and nodes are split to the
+ * point of it is then within (1 + 2 UB_IFS_SETTLE) = 1.5 times the bound, which is all the
+ * marcher needs far from the surface. Near the surface the bound goes to 0 and nodes are split to the
  * full depth. */
 #define UB_IFS_SETTLE 0.25
+/* Nodes whose bound is within this factor of the best settled one are settled too, at their own
+ * bound, instead of searched: the result stays a lower bound, at most this factor below the
+ * exhaustive search's, and near-ties (which overlapping balls make common) cost nothing. */
+#define UB_IFS_TIE 1.25
 
 double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth)
 {
     const int m = o->map_count, max_depth = o->ifs_depth;
     const double R = o->ifs_radius;
-    ifs_node stack[UB_MAX_IFS_DEPTH * (UB_MAX_IFS_MAPS - 1) + 2];
+    ifs_entry stack[UB_MAX_IFS_DEPTH * (UB_MAX_IFS_MAPS - 1) + 2];
+    ifs_level levels[UB_MAX_IFS_DEPTH + 1];
     int sp = 0;
-    ifs_node *root = &stack[sp++];
-    memset(root, 0, sizeof *root);
-    for (int r = 0; r < 3; r++)
-        root->lin[r][r] = 1.0;
-    root->scale = 1.0;
-    root->span = 1.0;
     double d0 = dist3(p, o->ifs_center);
-    root->lower = d0 - R;
+    stack[sp++] = (ifs_entry){d0 - R, 0.0, -1, 0};
     double upper = d0 + R;    /* the attractor has a point within this distance */
     double best = HUGE_VAL;   /* minimum bound over the settled part of the cut */
+    double tied = HUGE_VAL;   /* minimum bound of the nodes settled as near-ties */
+    double span[UB_MAX_IFS_DEPTH + 1];
+    span[0] = 1.0;
+    for (int k = 1; k <= max_depth; k++)
+        span[k] = span[k - 1] / m;
     *address = 0.0;
     *depth = 0;
     while (sp > 0) {
-        ifs_node n = stack[--sp];
+        ifs_entry n = stack[--sp];
         if (n.lower >= best || n.lower > upper)
             continue; /* cannot lower the minimum, or cannot hold the nearest point */
-        double radius = n.scale * R;
+        if (n.lower * UB_IFS_TIE >= best) {
+            tied = fmin(tied, n.lower);
+            continue;
+        }
+        /* Compose the node's map from its parent's (the root's is the identity). */
+        ifs_level *lv = &levels[n.depth];
+        if (n.depth == 0) {
+            memset(lv, 0, sizeof *lv);
+            for (int r = 0; r < 3; r++)
+                lv->lin[r][r] = 1.0;
+            lv->scale = 1.0;
+        } else {
+            const ifs_level *pa = &levels[n.depth - 1];
+            const double(*a)[4] = o->maps[n.map];
+            for (int r = 0; r < 3; r++) {
+                for (int c = 0; c < 3; c++)
+                    lv->lin[r][c] = pa->lin[r][0] * a[0][c] + pa->lin[r][1] * a[1][c] + pa->lin[r][2] * a[2][c];
+                lv->off[r] = pa->lin[r][0] * a[0][3] + pa->lin[r][1] * a[1][3] + pa->lin[r][2] * a[2][3] + pa->off[r];
+            }
+            lv->scale = pa->scale * o->map_norm[n.map];
+        }
+        double radius = lv->scale * R;
         if (n.depth == max_depth || radius <= UB_IFS_SETTLE * n.lower) {
             best = n.lower;
-            *address = n.address + 0.5 * n.span;
+            *address = n.address + 0.5 * span[n.depth];
             *depth = n.depth;
             continue;
         }
         /* Children in order of their bound, nearest pushed last (popped first). */
         double lower[UB_MAX_IFS_MAPS];
-        int order[UB_MAX_IFS_MAPS];
+        int order[UB_MAX_IFS_MAPS], count = 0;
         for (int i = 0; i < m; i++) {
             double c[3];
             for (int r = 0; r < 3; r++)
-                c[r] = n.lin[r][0] * o->map_center[i][0] + n.lin[r][1] * o->map_center[i][1]
-                     + n.lin[r][2] * o->map_center[i][2] + n.off[r];
+                c[r] = lv->lin[r][0] * o->map_center[i][0] + lv->lin[r][1] * o->map_center[i][1]
+                     + lv->lin[r][2] * o->map_center[i][2] + lv->off[r];
             double dc = dist3(p, c), rc = radius * o->map_norm[i];
             lower[i] = dc - rc;
             upper = fmin(upper, dc + rc);
-            int k = i;
+            if (lower[i] * UB_IFS_TIE >= best) {
+                if (lower[i] < best && lower[i] <= upper)
+                    tied = fmin(tied, lower[i]);
+                continue;
+            }
+            int k = count++;
             while (k > 0 && lower[order[k - 1]] < lower[i]) {
                 order[k] = order[k - 1];
                 k--;
             }
             order[k] = i;
         }
-        for (int k = 0; k < m; k++) {
+        for (int k = 0; k < count; k++) {
             int i = order[k];
-            if (lower[i] >= best || lower[i] > upper)
+            if (lower[i] > upper)
                 continue;
-            ifs_node *ch = &stack[sp++];
-            const double(*a)[4] = o->maps[i];
-            for (int r = 0; r < 3; r++) {
-                for (int c = 0; c < 3; c++)
-                    ch->lin[r][c] = n.lin[r][0] * a[0][c] + n.lin[r][1] * a[1][c] + n.lin[r][2] * a[2][c];
-                ch->off[r] = n.lin[r][0] * a[0][3] + n.lin[r][1] * a[1][3] + n.lin[r][2] * a[2][3] + n.off[r];
-            }
-            ch->scale = n.scale * o->map_norm[i];
-            ch->lower = lower[i];
-            ch->span = n.span / m;
-            ch->address = n.address + i * ch->span;
-            ch->depth = n.depth + 1;
+            stack[sp++] = (ifs_entry){lower[i], n.address + i * span[n.depth + 1], i, n.depth + 1};
         }
     }
-    return best;
+    return fmin(best, tied);
 }

@@ -234,8 +234,8 @@ def test_shading_passes_reach_compositor_and_exr_and_sum_to_combined(run_bpy, tm
 
 def test_every_bundled_preset_applies_and_renders(run_bpy, tmp_path):
     """Each bundled preset (the extension's presets/fractal/*.py, at least 5 of them), run through
-    script.execute_preset with the fractal active, returns FINISHED, sets the object's mu to the
-    value written in the preset file (to 1e-6), and renders (48 x 36, transparent film, one sun) an
+    script.execute_preset with the fractal active, returns FINISHED, sets the object's kind and (where
+    the preset has one) mu to the values written in the preset file (mu to 1e-6), and renders (48 x 36, transparent film, one sun) an
     image with coverage between 2% and 100%, finite values in every channel, and more than one
     colour: the spread (max - min) of Combined RGB over covered pixels exceeds 0.01."""
     r = run_bpy("""
@@ -255,12 +255,14 @@ def test_every_bundled_preset_applies_and_renders(run_bpy, tmp_path):
             assert bpy.context.object == ob
             status = bpy.ops.script.execute_preset(filepath=path, menu_idname="UNBOUND_MT_fractal_presets")
             text = open(path).read()
-            wanted = [float(v) for v in re.search(r"ob\\.unbound\\.mu = \\(([^)]*)\\)", text).group(1).split(",")]
+            mu = re.search(r"ob\\.unbound\\.mu = \\(([^)]*)\\)", text)
+            wanted = [float(v) for v in mu.group(1).split(",")] if mu else list(ob.unbound.mu)
+            kind = re.search(r"ob\\.unbound\\.kind = '(\\w+)'", text).group(1)
             exr = S.render_to_exr(scene, os.path.basename(path) + ".exr")
             rgba = np.stack([exr["ViewLayer.Combined." + c] for c in "RGBA"], -1)
             hit = rgba[..., 3] > 0.5
             results[os.path.basename(path)] = dict(
-                status=sorted(status), mu=list(ob.unbound.mu), wanted=wanted,
+                status=sorted(status), mu=list(ob.unbound.mu), wanted=wanted, kind=ob.unbound.kind, wanted_kind=kind,
                 finite=bool(all(np.isfinite(v).all() for v in exr.values())),
                 coverage=float(hit.mean()),
                 spread=float(np.ptp(rgba[..., :3][hit])) if hit.any() else 0.0)
@@ -268,9 +270,12 @@ def test_every_bundled_preset_applies_and_renders(run_bpy, tmp_path):
     """, timeout=300)
     results = r["results"]
     print(results)
-    assert len(results) >= 5, sorted(results)
+    assert len(results) >= 15, sorted(results)
+    assert {res["kind"] for res in results.values()} == {"QUATERNION_JULIA", "QUATERNION_MANDELBROT", "JULIA_STACK",
+                                                          "CUBIC_LOCUS", "IFS"}
     for name, res in results.items():
         assert res["status"] == ["FINISHED"], (name, res)
+        assert res["kind"] == res["wanted_kind"], (name, res)
         assert res["mu"] == pytest.approx(res["wanted"], abs=1e-6), (name, res)
         assert res["finite"], (name, res)
         assert 0.02 <= res["coverage"] <= 1.0, (name, res)

@@ -100,8 +100,9 @@ def test_bound_never_exceeds_distance_to_the_attractor(name):
 
 @pytest.mark.parametrize("name,depth", [("sierpinski", 4), ("menger", 2), ("koch", 2), ("random affine", 3)])
 def test_bound_is_the_leaf_balls_distance(name, depth):
-    """Against the enumerated leaf balls of the same depth: inside them (and near them) the bound is
-    their signed distance; farther out the hierarchy may settle early, within a factor 1.5."""
+    """Against the enumerated leaf balls of the same depth: inside them the bound is their signed
+    distance; outside, the search may settle early (a ball at most a quarter of its distance
+    wide: factor 1.5) and settle near-ties (factor 1.25), so it lies within a factor 1.875."""
     rng = np.random.default_rng(3)
     system = ref.IFS(SYSTEMS[name])
     centres, radii = system.leaves(depth)
@@ -110,7 +111,7 @@ def test_bound_is_the_leaf_balls_distance(name, depth):
     tol = 1e-5 * (1 + np.abs(leaf))
     assert np.all(est <= leaf + tol)
     outside = leaf > 0
-    assert np.all(est[outside] >= leaf[outside] / 1.5 - tol[outside])
+    assert np.all(est[outside] >= leaf[outside] / 1.875 - tol[outside])
     inside = leaf < 0
     assert inside.sum() > 100
     np.testing.assert_allclose(est[inside], leaf[inside], atol=1e-5)

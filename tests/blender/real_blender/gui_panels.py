@@ -33,6 +33,8 @@ def watch_panels():
     """Record which of the add-on's panels the Properties editor draws: an extra draw function
     appended to each (it draws nothing). (Replacing Panel.draw after registration crashes 4.3.)"""
     for cls in sys.modules[MODULE + ".ui"].classes:
+        if not issubclass(cls, bpy.types.Panel):
+            continue
         cls.append(lambda self, context, _name=cls.__name__: DRAWN.add(_name))
 
 
