@@ -75,7 +75,7 @@ VIEWS = {
     # The cubic locus: (Re a, Im a, Re b) at Im b = 0, cut to |(a, b)| <= extent.
     "cubic_connectedness_locus": dict(camera=((-2.2, -3.4, 2.0), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
     "cubic_locus_c_plus": dict(camera=((-2.6, -4.0, 2.4), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
-    "quaternion_mandelbrot": dict(camera=((-1.2, -3.6, 2.0), (-0.5, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "quaternion_mandelbrot": dict(camera=((-1.0, -4.8, 2.5), (-0.6, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
     # IFS attractors in the cube [-1, 1]^3 (the Koch curve spans X, its spikes rise along Z and Y).
     "sierpinski_tetrahedron": dict(camera=((-2.4, -4.2, 1.9), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
     "menger_sponge": dict(camera=((-3.0, -4.4, 2.9), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),

@@ -141,8 +141,11 @@ def test_curve_path(run_bpy):
     assert "Traceback" not in r["_output"]
 
 
-def test_ifs_map_operators_and_errors(run_bpy):
+def test_ifs_map_operators_presets_and_errors(run_bpy):
+    """The shape, add and remove operators edit the maps; a saved preset restores the maps (a
+    collection) on another IFS; an IFS without maps is reported, not raised."""
     r = run_bpy("""
+        import os
         scene = S.empty_scene(32, 24)
         S.add_camera(scene, location=(-2.6, -4.4, 2.4))
         bpy.ops.object.unbound_fractal_add(kind='IFS', use_cursor=False)
@@ -152,18 +155,30 @@ def test_ifs_map_operators_and_errors(run_bpy):
         counts.append(len(u.ifs_maps))
         bpy.ops.object.unbound_ifs_map_add()
         counts.append(len(u.ifs_maps))
+        u.ifs_maps[-1].location = (0.1, 0.2, 0.3)
+        u.ifs_maps[-1].scale = (0.2, 0.25, -0.3)
+        saved = [tuple(m.location) + tuple(m.rotation) + tuple(m.scale) for m in u.ifs_maps]
+        status = bpy.ops.unbound.fractal_preset_add(name="My IFS")
+        folder = bpy.utils.preset_paths("unbound/fractal")[-1]
+        bpy.ops.object.unbound_fractal_add(kind='IFS', use_cursor=False)
+        v = bpy.context.object.unbound
+        run = bpy.ops.script.execute_preset(filepath=os.path.join(folder, "My_IFS.py"),
+                                            menu_idname="UNBOUND_MT_fractal_presets")
+        restored = [tuple(m.location) + tuple(m.rotation) + tuple(m.scale) for m in v.ifs_maps]
         bpy.ops.object.unbound_ifs_map_remove()
         bpy.ops.object.unbound_ifs_shape(shape='KOCH')
-        counts.append(len(u.ifs_maps))
-        while len(u.ifs_maps):
+        counts.append(len(v.ifs_maps))
+        while len(v.ifs_maps):
             bpy.ops.object.unbound_ifs_map_remove()
         try:
             bpy.ops.render.render()
             outcome = "finished"
         except RuntimeError as exc:
             outcome = str(exc)
-        S.report(counts=counts, outcome=outcome)
+        S.report(counts=counts, outcome=outcome, saved=saved, restored=restored, ops=sorted(status) + sorted(run))
     """)
     assert r["counts"] == [4, 20, 21, 4]
+    assert r["ops"] == ["FINISHED", "FINISHED"]
+    np.testing.assert_allclose(r["restored"], r["saved"], atol=1e-6)
     assert "an IFS needs at least one map" in r["outcome"]
     assert "Traceback" not in r["_output"]

@@ -98,7 +98,7 @@ def test_background_render(user_dir):
 
 def test_gui_panels_screenshots(user_dir):
     SHOTS.mkdir(parents=True, exist_ok=True)
-    names = ["object_tab.png", "render_tab.png", "view_layer_tab.png"]
+    names = ["object_tab.png", "object_tab_ifs.png", "render_tab.png", "view_layer_tab.png"]
     for name in names:
         (SHOTS / name).unlink(missing_ok=True)
     w, h = SCREEN
@@ -109,6 +109,9 @@ def test_gui_panels_screenshots(user_dir):
     assert rc == 0, out[-4000:]
     log = results(out, "UNBOUND_GUI")
     assert not [e for e in log if "error" in e], out[-4000:]
+    assert "Traceback" not in out, out[-4000:]  # a panel's draw() that fails prints one
+    assert next(e for e in log if e.get("step") == "ifs") == dict(step="ifs", op=["FINISHED"], maps=20,
+                                                                   t=pytest.approx(0, abs=1e9))
     setup = next(e for e in log if e.get("step") == "setup")
     assert setup["addon_enabled"] and setup["add_op"] == ["FINISHED"], setup
     assert setup["is_fractal"] and setup["engine"] == "UNBOUND" and setup["window"] == list(SCREEN), setup
@@ -116,6 +119,9 @@ def test_gui_panels_screenshots(user_dir):
     assert sorted(shots) == sorted(names), log
     expect = {"object_tab.png": ("OBJECT", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice",
                                             "UNBOUND_PT_fractal_quality", "UNBOUND_PT_fractal_shading"}),
+              # An IFS has no slice; its panel draws the list of maps (a UIList).
+              "object_tab_ifs.png": ("OBJECT", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_quality",
+                                                "UNBOUND_PT_fractal_shading"}),
               "render_tab.png": ("RENDER", {"UNBOUND_PT_render", "UNBOUND_PT_render_lighting",
                                             "UNBOUND_PT_render_effects"}),  # Sea starts closed
               "view_layer_tab.png": ("VIEW_LAYER", {"UNBOUND_PT_passes"})}

@@ -95,6 +95,16 @@ def setup():
     show_tab('OBJECT')
 
 
+def make_ifs():
+    """The active fractal becomes a Menger sponge IFS: its panel then draws the maps' list."""
+    ob = bpy.context.view_layer.objects.active
+    ob.unbound.kind = 'IFS'
+    with bpy.context.temp_override(window=window(), object=ob, active_object=ob):
+        res = bpy.ops.object.unbound_ifs_shape(shape='MENGER')
+    log(step="ifs", op=sorted(res), maps=len(ob.unbound.ifs_maps))
+    show_tab('OBJECT')
+
+
 def quit_blender():
     log(step="quit")
     import addon_utils
@@ -104,6 +114,7 @@ def quit_blender():
 
 
 STEPS = [setup, scroll_to_end, lambda: grab("object_tab.png"),
+         make_ifs, scroll_to_end, lambda: grab("object_tab_ifs.png"),
          lambda: show_tab('RENDER'), scroll_to_end, lambda: grab("render_tab.png"),
          lambda: show_tab('VIEW_LAYER'), scroll_to_end, lambda: grab("view_layer_tab.png"), quit_blender]
 
