@@ -125,6 +125,10 @@ typedef struct {
  * bound, instead of searched: the result stays a lower bound, at most this factor below the
  * exhaustive search's, and near-ties (which overlapping balls make common) cost nothing. */
 #define UB_IFS_TIE 1.25
+/* At most this many nodes are split per estimate; past it every node still waiting settles at its
+ * own bound. The result stays a lower bound; only pathological map sets (many nearly equal maps)
+ * get there, and their cost stays bounded. */
+#define UB_IFS_MAX_SPLITS 4096
 
 double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth)
 {
@@ -134,7 +138,10 @@ double ub_ifs_distance(const ub_object *o, const double p[3], double *address, i
     ifs_level levels[UB_MAX_IFS_DEPTH + 1];
     int sp = 0;
     double d0 = dist3(p, o->ifs_center);
+    if (!isfinite(d0))
+        return d0; /* NaN: never a hit, and the marcher's step falls back to its maximum */
     stack[sp++] = (ifs_entry){d0 - R, 0.0, -1, 0};
+    int splits = 0;
     double upper = d0 + R;    /* the attractor has a point within this distance */
     double best = HUGE_VAL;   /* minimum bound over the settled part of the cut */
     double tied = HUGE_VAL;   /* minimum bound of the nodes settled as near-ties */
@@ -170,6 +177,12 @@ double ub_ifs_distance(const ub_object *o, const double p[3], double *address, i
             lv->scale = pa->scale * o->map_norm[n.map];
         }
         double radius = lv->scale * R;
+        if (++splits > UB_IFS_MAX_SPLITS) {
+            tied = fmin(tied, n.lower);
+            for (int k = 0; k < sp; k++)
+                tied = fmin(tied, stack[k].lower);
+            break;
+        }
         if (n.depth == max_depth || radius <= UB_IFS_SETTLE * n.lower) {
             best = n.lower;
             *address = n.address + 0.5 * span[n.depth];

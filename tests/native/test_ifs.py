@@ -167,3 +167,20 @@ def test_bad_maps_are_rejected():
         uc.describe(dict(kind="ifs", maps=[[[0.5, 0, 0, float("nan")], [0, 0.5, 0, 0], [0, 0, 0.5, 0]]]))
     with pytest.raises(ValueError):
         uc.describe(dict(kind="ifs", ifs_depth=17))
+
+
+def test_many_nearly_equal_maps_stay_a_lower_bound():
+    """32 nearly equal maps of ratio 0.9 at depth 16 overlap almost completely (the search would
+    split nodes without end); the split budget settles them, and the result is still no more
+    than the distance to the attractor. A NaN point gives NaN (never a hit)."""
+    rng = np.random.default_rng(8)
+    maps = [[[0.9 + 1e-3 * rng.normal(), 0, 0, 0.05 * rng.normal()], [0, 0.9, 0, 0.05 * rng.normal()],
+             [0, 0, 0.9, 0]] for _ in range(32)]
+    system = ref.IFS(maps)
+    attractor = system.chaos_game(5000, seed=3)
+    pts = np.concatenate([attractor[:200] + 0.01, rng.uniform(-1, 1, (200, 3))])
+    est, _, p64 = estimate(dict(kind="ifs", maps=maps, ifs_depth=16), pts)
+    nearest = ref.leaf_distance(p64, attractor, np.zeros(len(attractor)))
+    assert np.all(est <= nearest + 1e-6)
+    est, _, _ = estimate(dict(kind="ifs", ifs_depth=16), [(np.nan, 0, 0), (0.5, 0.5, 0.5)])
+    assert np.isnan(est[0]) and np.isfinite(est[1])
