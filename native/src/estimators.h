@@ -63,6 +63,22 @@ typedef struct {
     vf normal[3];  /* object-space gradient of |z_n|^2: z_n . dz_n/dx_axis (unnormalised) */
 } UB_FN(ub_de_extra);
 
+/* The bookkeeping every escape-time iteration shares, after computing the next |z|^2 (nr2):
+ * lanes still iterating take it, the orbit trap and the potential's scale follow (gstep: 1 /
+ * degree), the escape count grows, and lanes past the escape radius stop. Returns the lanes
+ * still iterating. */
+static inline vm UB_FN(orbit_step)(const UB_FN(ub_de_params) *p, const int want, vm active, vf nr2, vf *r2, vf *n,
+                                   vf *trap, vf *gscale, vf gstep)
+{
+    *r2 = v_select(active, nr2, *r2);
+    if (want & UB_WANT_TRAP)
+        *trap = v_select(active, v_min(*trap, nr2), *trap);
+    if (want & UB_WANT_POTENTIAL)
+        *gscale = v_select(active, v_mul(*gscale, gstep), *gscale);
+    *n = v_count(*n, active);
+    return m_andnot(v_gt(nr2, p->bail2), active);
+}
+
 /* The quaternion iteration of section 3, for the Julia sets (z0 = the point, mu fixed) and,
  * with `mandel`, the Mandelbrot slices (z0 = mu = the point: the orbit from z1 = mu of the
  * critical point 0). Besides the distance estimate it yields the orbit trap, the potential G()
@@ -132,13 +148,7 @@ static inline void UB_FN(de_quaternion)(const UB_FN(ub_de_params) *p, const int 
         b = v_select(active, nb, b);
         c = v_select(active, nc, c);
         d = v_select(active, nd, d);
-        r2 = v_select(active, nr2, r2);
-        if (want & UB_WANT_TRAP)
-            trap = v_select(active, v_min(trap, nr2), trap);
-        if (want & UB_WANT_POTENTIAL)
-            gscale = v_select(active, v_mul(gscale, half), gscale);
-        n = v_count(n, active);
-        active = m_andnot(v_gt(nr2, p->bail2), active);
+        active = UB_FN(orbit_step)(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
         if (!m_bits(active))
             break;
     }
@@ -174,7 +184,9 @@ static inline void UB_FN(de_stack)(const UB_FN(ub_de_params) *p, vf x, vf y, vf 
     const int last = o->path_count - 1;
     for (int l = 0; l < UB_LANES; l++) {
         double u = (double)wl[l] / o->stack_height + 0.5;
-        u = u < 0.0 ? 0.0 : (u > 1.0 ? 1.0 : u); /* NaN -> 1: the lane is discarded anyway */
+        /* Clamped so that NaN (a lane with no point: a missed ray's infinite t times 0) gives 0,
+         * never an index outside the path. */
+        u = u >= 0.0 ? (u <= 1.0 ? u : 1.0) : 0.0;
         double pos = u * last;
         int i = last > 0 ? (int)pos : 0;
         if (i >= last)
@@ -183,7 +195,7 @@ static inline void UB_FN(de_stack)(const UB_FN(ub_de_params) *p, vf x, vf y, vf 
         const double *c0 = o->path[i], *c1 = o->path[last > 0 ? i + 1 : 0];
         cr[l] = (float)(c0[0] + f * (c1[0] - c0[0]));
         ci[l] = (float)(c0[1] + f * (c1[1] - c0[1]));
-        speed[l] = (float)(hypot(c1[0] - c0[0], c1[1] - c0[1]) * last / o->stack_height);
+        speed[l] = (float)o->path_speed[i];
     }
     const vf c_re = v_load(cr), c_im = v_load(ci), cw = v_load(speed);
     const vf two = v_set1(2.0f), four = v_set1(4.0f), half = v_set1(0.5f), one = v_set1(1.0f);
@@ -198,13 +210,7 @@ static inline void UB_FN(de_stack)(const UB_FN(ub_de_params) *p, vf x, vf y, vf 
         vf nr2 = v_fma(na, na, v_mul(nb, nb));
         a = v_select(active, na, a);
         b = v_select(active, nb, b);
-        r2 = v_select(active, nr2, r2);
-        if (want & UB_WANT_TRAP)
-            trap = v_select(active, v_min(trap, nr2), trap);
-        if (want & UB_WANT_POTENTIAL)
-            gscale = v_select(active, v_mul(gscale, half), gscale);
-        n = v_count(n, active);
-        active = m_andnot(v_gt(nr2, p->bail2), active);
+        active = UB_FN(orbit_step)(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
         if (!m_bits(active))
             break;
     }
@@ -257,13 +263,7 @@ static inline void UB_FN(cubic_orbit)(const UB_FN(ub_de_params) *p, float sign, 
         pi = v_select(active, npi, pi);
         qr = v_select(active, nqr, qr);
         qi = v_select(active, nqi, qi);
-        r2 = v_select(active, nr2, r2);
-        if (want & UB_WANT_TRAP)
-            trap = v_select(active, v_min(trap, nr2), trap);
-        if (want & UB_WANT_POTENTIAL)
-            gscale = v_select(active, v_mul(gscale, third), gscale);
-        n = v_count(n, active);
-        active = m_andnot(v_gt(nr2, p->bail2), active);
+        active = UB_FN(orbit_step)(p, want, active, nr2, &r2, &n, &trap, &gscale, third);
         if (!m_bits(active))
             break;
     }

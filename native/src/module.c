@@ -230,37 +230,8 @@ static int get_color(PyObject *o, const char *name, double hi, float out[3])
     return 0;
 }
 
-/* A colour ramp: a sequence of 2..UB_MAX_RAMP RGB triples, uniformly spaced over [0, 1]. */
-static int get_ramp(PyObject *o, const char *name, ub_object *obj)
-{
-    if (!PySequence_Check(o) || PyUnicode_Check(o)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a sequence of RGB triples", name);
-        return -1;
-    }
-    Py_ssize_t len = PySequence_Size(o);
-    if (len < 0)
-        return -1;
-    if (len < 2 || len > UB_MAX_RAMP) {
-        PyErr_Format(PyExc_ValueError, "%s must have 2 to %d colours, got %zd", name, UB_MAX_RAMP, len);
-        return -1;
-    }
-    for (Py_ssize_t i = 0; i < len; i++) {
-        PyObject *item = PySequence_GetItem(o, i);
-        if (!item)
-            return -1;
-        char sub[ERRBUF];
-        snprintf(sub, sizeof sub, "%s[%zd]", name, i);
-        int rc = get_color(item, sub, 1e6, obj->ramp[i]);
-        Py_DECREF(item);
-        if (rc)
-            return -1;
-    }
-    obj->ramp_size = (int)len;
-    return 0;
-}
-
-/* A sequence of 1..max items, each parsed by `item_fn` into slot i; returns the count or -1. */
-static int get_sequence(PyObject *o, const char *name, int max, const char *what,
+/* A sequence of min..max items, each parsed by `item_fn` into slot i; returns the count or -1. */
+static int get_sequence(PyObject *o, const char *name, int min, int max, const char *what,
                         int (*item_fn)(PyObject *, const char *, ub_object *, int), ub_object *obj)
 {
     if (!PySequence_Check(o) || PyUnicode_Check(o)) {
@@ -270,8 +241,8 @@ static int get_sequence(PyObject *o, const char *name, int max, const char *what
     Py_ssize_t len = PySequence_Size(o);
     if (len < 0)
         return -1;
-    if (len < 1 || len > max) {
-        PyErr_Format(PyExc_ValueError, "%s must hold 1 to %d %s", name, max, what);
+    if (len < min || len > max) {
+        PyErr_Format(PyExc_ValueError, "%s must hold %d to %d %s, got %zd", name, min, max, what, len);
         return -1;
     }
     for (Py_ssize_t i = 0; i < len; i++) {
@@ -286,6 +257,11 @@ static int get_sequence(PyObject *o, const char *name, int max, const char *what
             return -1;
     }
     return (int)len;
+}
+
+static int get_ramp_color(PyObject *o, const char *name, ub_object *obj, int i)
+{
+    return get_color(o, name, 1e6, obj->ramp[i]);
 }
 
 static int get_path_point(PyObject *o, const char *name, ub_object *obj, int i)
@@ -398,14 +374,18 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
         return -1;
     if (FIELD("color_mode") && get_choice(v, sub, color_modes, &color_mode))
         return -1;
-    if (FIELD("color_ramp") && v != Py_None && get_ramp(v, sub, obj))
-        return -1;
+    /* A colour ramp: RGB triples uniformly spaced over [0, 1]. */
+    if (FIELD("color_ramp") && v != Py_None) {
+        if ((count = get_sequence(v, sub, 2, UB_MAX_RAMP, "RGB colours", get_ramp_color, obj)) < 0)
+            return -1;
+        obj->ramp_size = count;
+    }
     if (FIELD("ramp_scale") && get_double(v, sub, -1e6, 1e6, 0, &ramp_scale))
         return -1;
     if (FIELD("ramp_offset") && get_double(v, sub, -1e6, 1e6, 0, &ramp_offset))
         return -1;
     if (FIELD("path")) {
-        if ((count = get_sequence(v, sub, UB_MAX_PATH, "(re, im) points", get_path_point, obj)) < 0)
+        if ((count = get_sequence(v, sub, 1, UB_MAX_PATH, "(re, im) points", get_path_point, obj)) < 0)
             return -1;
         obj->path_count = count;
     }
@@ -417,7 +397,7 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
         return -1;
     if (FIELD("maps")) {
         memset(obj->maps, 0, sizeof obj->maps);
-        if ((count = get_sequence(v, sub, UB_MAX_IFS_MAPS, "3x4 affine maps", get_ifs_map, obj)) < 0)
+        if ((count = get_sequence(v, sub, 1, UB_MAX_IFS_MAPS, "3x4 affine maps", get_ifs_map, obj)) < 0)
             return -1;
         obj->map_count = count;
     }

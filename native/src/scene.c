@@ -95,8 +95,13 @@ static const char *prepare_kind(ub_object *obj)
             return "a Julia stack needs a c-path of at least one point";
         /* Every c on the path's segments has |c| <= the largest vertex norm (convexity). */
         double c_max = 0.0;
-        for (int i = 0; i < obj->path_count; i++)
+        int last = obj->path_count - 1;
+        for (int i = 0; i < obj->path_count; i++) {
             c_max = fmax(c_max, hypot(obj->path[i][0], obj->path[i][1]));
+            obj->path_speed[i] = i < last ? hypot(obj->path[i + 1][0] - obj->path[i][0],
+                                                  obj->path[i + 1][1] - obj->path[i][1]) * last / obj->stack_height
+                                          : 0.0;
+        }
         double radius = 0.5 * (1.0 + sqrt(1.0 + 4.0 * c_max)), h = 0.5 * obj->stack_height;
         obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
         obj->bound_radius = sqrt(radius * radius + h * h);

@@ -124,6 +124,7 @@ typedef struct {
      * object z in [-stack_height / 2, stack_height / 2]; x + iy is the complex plane. */
     int path_count;
     double path[UB_MAX_PATH][2];
+    double path_speed[UB_MAX_PATH]; /* derived: |dc/dz| along segment i (0 for one point) */
     double stack_height;
     /* Cubic locus: component, and the radius of the 4-D ball it is clipped to (C+ and C- are
      * unbounded; their intersection lies in |a|, |b| <= 2). */

@@ -82,6 +82,15 @@ def camera():
     return make_camera()
 
 
+def estimate(obj, points):
+    """uc.estimate at points (n, 3), rounded to float32 as the core reads them: (estimate,
+    escape count, the points as float64)."""
+    pts = np.ascontiguousarray(points, np.float32)
+    est, it = np.empty(len(pts), np.float32), np.empty(len(pts), np.float32)
+    uc.estimate(obj, pts, est, it)
+    return est, it, pts.astype(np.float64)
+
+
 def pixel_rays(camera):
     """The native core's own pixel-centre rays (uc.camera_ray), as float64 arrays (H, W, 3)."""
     h, w = camera["height"], camera["width"]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import make_camera, pixel_rays, render
+from conftest import estimate, make_camera, pixel_rays, render
 from reference import families64 as ref
 
 
@@ -57,13 +57,6 @@ def random_affine(seed=4, count=5):
 
 
 SYSTEMS = {"sierpinski": tetrahedron(), "menger": menger(), "koch": koch(), "random affine": random_affine()}
-
-
-def estimate(obj, points):
-    pts = np.ascontiguousarray(points, np.float32)
-    est, it = np.empty(len(pts), np.float32), np.empty(len(pts), np.float32)
-    uc.estimate(obj, pts, est, it)
-    return est, it, pts.astype(np.float64)
 
 
 def query_points(system, rng, count=1000):

@@ -8,18 +8,11 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import check_no_passthrough, dense_sampling, make_camera, render
+from conftest import check_no_passthrough, dense_sampling, estimate, make_camera, render
 from reference import families64 as ref
 
 ITERS = 32
 HEIGHT = 2.0
-
-
-def estimate(obj, points):
-    pts = np.ascontiguousarray(points, np.float32)
-    est, it = np.empty(len(pts), np.float32), np.empty(len(pts), np.float32)
-    uc.estimate(obj, pts, est, it)
-    return est, it
 
 
 def test_empirical():
@@ -37,15 +30,15 @@ def test_constant_path_is_an_extrusion(path):
     rng = np.random.default_rng(3)
     obj = dict(kind="julia_stack", path=path, stack_height=HEIGHT, max_iterations=ITERS)
     xy = rng.uniform(-1.6, 1.6, (3000, 2))
-    base, _ = estimate(obj, np.column_stack([xy, np.zeros(len(xy))]))
+    base, _, _ = estimate(obj, np.column_stack([xy, np.zeros(len(xy))]))
     for z in (-0.99, -0.3, 0.5, 0.999):
-        moved, _ = estimate(obj, np.column_stack([xy, np.full(len(xy), z)]))
+        moved, _, _ = estimate(obj, np.column_stack([xy, np.full(len(xy), z)]))
         np.testing.assert_array_equal(moved, base)
     want = ref.julia_estimate_2d(xy.astype(np.float32).astype(np.float64) @ [1, 1j], complex(*path[0]), ITERS)
     big = want > 1e-3
     assert big.sum() > 1000 and (want == 0).sum() > 200
     np.testing.assert_allclose(base[big], want[big], rtol=2e-3)
-    above, _ = estimate(obj, np.column_stack([xy, np.full(len(xy), 1.7)]))
+    above, _, _ = estimate(obj, np.column_stack([xy, np.full(len(xy), 1.7)]))
     assert np.all(above >= 0.7 - 1e-6)
 
 
@@ -108,3 +101,13 @@ def test_no_ray_passes_through(name):
 
     t_solid, t_shell = dense_sampling(cam, classify, bound["bound_center"], bound["bound_radius"], 1e-3)
     check_no_passthrough(cam, passes, t_solid, t_shell, slack=3e-3, agree_tol=0.02, agree_fraction=0.95)
+
+
+def test_non_finite_points_are_safe():
+    """Shading evaluates the estimate at every lane of a packet, missed rays included (their
+    infinite t gives NaN and inf points): the path lookup must stay inside the path."""
+    obj = dict(kind="julia_stack", path=[(-1.0, 0.0), (0.2, 0.3), (0.25, 0.0)])
+    pts = [(np.nan, 0, np.nan), (0, 0, np.inf), (0, 0, -np.inf), (np.inf, np.nan, 1e30), (1.8, 1.8, 0.0)]
+    est, it, _ = estimate(obj, pts)
+    assert np.isfinite(est[-1]) and est[-1] > 0
+    assert not np.any(est[:4] < 0)  # NaN or a non-negative bound, never a crash

@@ -8,18 +8,11 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import check_no_passthrough, dense_sampling, make_camera, render
+from conftest import check_no_passthrough, dense_sampling, estimate, make_camera, render
 from reference import families64 as ref
 
 ITERS = 24
 BASIS_1IJ = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 0]]
-
-
-def estimate(obj, points):
-    pts = np.ascontiguousarray(points, np.float32)
-    est, it = np.empty(len(pts), np.float32), np.empty(len(pts), np.float32)
-    uc.estimate(obj, pts, est, it)
-    return est, it
 
 
 def test_exact_and_bounded_by_radius_2():
@@ -38,7 +31,7 @@ def test_estimate_matches_float64():
     origin = (0.05, -0.1, 0.02, 0.1)
     obj = dict(kind="quaternion_mandelbrot", max_iterations=ITERS, slice_basis=basis.tolist(), slice_origin=origin)
     pts = rng.uniform(-1.6, 1.6, (4000, 3)).astype(np.float32)
-    est, _ = estimate(obj, pts)
+    est, _, _ = estimate(obj, pts)
     q = np.asarray(origin) + pts.astype(np.float64) @ basis.T
     want = ref.mandelbrot_estimate(q, ITERS)
     big = want > 1e-3
@@ -52,7 +45,7 @@ def test_estimate_matches_float64():
 def test_complex_plane_is_the_mandelbrot_set():
     """On the 1-i plane: c = -1, -0.12+0.75i (inside) and 0.3, -2.1, 1i+0.5 (outside)."""
     obj = dict(kind="quaternion_mandelbrot", max_iterations=64, slice_basis=BASIS_1IJ)
-    est, _ = estimate(obj, [(-1.0, 0, 0), (-0.12, 0.75, 0), (0.3, 0, 0), (-2.1, 0, 0), (0.5, 1.0, 0)])
+    est, _, _ = estimate(obj, [(-1.0, 0, 0), (-0.12, 0.75, 0), (0.3, 0, 0), (-2.1, 0, 0), (0.5, 1.0, 0)])
     assert list(est[:2]) == [0.0, 0.0]
     assert np.all(est[2:] > 0.0)
 
@@ -64,8 +57,8 @@ def test_solid_of_revolution():
     x = rng.uniform(-2, 0.6, 2000)
     rho = rng.uniform(0, 1.3, 2000)
     phi = rng.uniform(0, 2 * np.pi, 2000)
-    turned, _ = estimate(obj, np.stack([x, rho * np.cos(phi), rho * np.sin(phi)], 1))
-    plane, _ = estimate(obj, np.stack([x, rho, np.zeros_like(x)], 1))
+    turned, _, _ = estimate(obj, np.stack([x, rho * np.cos(phi), rho * np.sin(phi)], 1))
+    plane, _, _ = estimate(obj, np.stack([x, rho, np.zeros_like(x)], 1))
     big = plane > 1e-3
     np.testing.assert_allclose(turned[big], plane[big], rtol=2e-3)
     assert np.mean((turned == 0) != (plane == 0)) < 0.01

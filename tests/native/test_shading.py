@@ -501,7 +501,7 @@ BAD_SHADING = [
     (dict(shading=dict(sea=dict(depth=3))), ValueError, r"shading\.sea has an unknown key 'depth'"),
     (dict(shading=dict(reflection_depth=17)), ValueError, r"shading\.reflection_depth must be in \[0, 16\]"),
     (dict(shading=[1, 2]), TypeError, r"shading must be a dict"),
-    (dict(obj=dict(color_ramp=[(1.0, 0.0, 0.0)])), ValueError, r"objects\[0\]\.color_ramp must have 2 to 256 colours, got 1"),
+    (dict(obj=dict(color_ramp=[(1.0, 0.0, 0.0)])), ValueError, r"objects\[0\]\.color_ramp must hold 2 to 256 RGB colours, got 1"),
     (dict(obj=dict(color_ramp=[(1.0, 0.0), (0.0, 1.0)])), ValueError, r"objects\[0\]\.color_ramp\[0\] must have 3 components"),
     (dict(obj=dict(normal_method="foo")), ValueError,
      r"objects\[0\]\.normal_method must be one of the documented names, got 'foo'"),
