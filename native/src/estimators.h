@@ -28,7 +28,6 @@ static inline vf UB_FN(v_log)(vf x)
 /* Constants of one fractal object in kernel precision, derived once per tile. */
 typedef struct {
     const ub_object *obj;
-    ub_fractal_kind kind;
     vf mu[4];
     vf bail2;
     int max_iterations;
@@ -39,7 +38,6 @@ typedef struct {
 static inline void UB_FN(de_params)(const ub_object *o, const ub_camera *cam, UB_FN(ub_de_params) *p)
 {
     p->obj = o;
-    p->kind = o->kind;
     for (int i = 0; i < 4; i++)
         p->mu[i] = v_set1((float)o->mu[i]);
     p->bail2 = v_set1((float)(o->bailout * o->bailout));
@@ -346,7 +344,7 @@ static inline void UB_FN(de_ifs)(const UB_FN(ub_de_params) *p, vf x, vf y, vf z,
 static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf d, const int want, vf *dist,
                                  vf *iters, UB_FN(ub_de_extra) *x)
 {
-    switch (p->kind) {
+    switch (p->obj->kind) {
     case UB_KIND_QUATERNION_MANDELBROT:
         UB_FN(de_quaternion)(p, 1, a, b, c, d, want, dist, iters, x);
         break;

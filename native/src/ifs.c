@@ -28,10 +28,10 @@ static double max_eigenvalue_sym3(const double a[3][3])
     return fmin(lmax * (1.0 + 1e-9) + 1e-300, gersh);
 }
 
+/* Cramer's rule. */
 static int solve3(const double m[3][3], const double b[3], double x[3])
 {
-    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-               + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    double det = ub_det3(m);
     if (!(fabs(det) > 1e-300))
         return -1;
     for (int c = 0; c < 3; c++) {
@@ -39,9 +39,7 @@ static int solve3(const double m[3][3], const double b[3], double x[3])
         memcpy(t, m, sizeof t);
         for (int r = 0; r < 3; r++)
             t[r][c] = b[r];
-        x[c] = (t[0][0] * (t[1][1] * t[2][2] - t[1][2] * t[2][1]) - t[0][1] * (t[1][0] * t[2][2] - t[1][2] * t[2][0])
-                + t[0][2] * (t[1][0] * t[2][1] - t[1][1] * t[2][0]))
-             / det;
+        x[c] = ub_det3((const double(*)[3])t) / det;
     }
     return 0;
 }

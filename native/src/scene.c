@@ -32,7 +32,7 @@ void ub_sample_offset(int sample, double *dx, double *dy)
     *dy = y - floor(y);
 }
 
-static double det3(const double m[3][3])
+double ub_det3(const double m[3][3])
 {
     return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
          - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
@@ -56,7 +56,7 @@ void ub_sym3_eigen_range(const double a[3][3], double *lmin, double *lmax)
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             b[i][j] = (a[i][j] - (i == j ? q : 0.0)) / p;
-    double r = det3(b) / 2.0;
+    double r = ub_det3(b) / 2.0;
     double phi = r <= -1.0 ? M_PI / 3.0 : (r >= 1.0 ? 0.0 : acos(r) / 3.0);
     /* The three roots are q + 2p cos(phi + 2k pi/3); k = 0 gives the largest, k = 1 the smallest. */
     *lmax = q + 2.0 * p * cos(phi);
@@ -187,7 +187,7 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             lin[i][j] = m[i][j];
-    double det = det3(lin);
+    double det = ub_det3(lin);
     if (!isfinite(det) || fabs(det) < 1e-18)
         return "object_to_world must be invertible (zero scale?)";
     double inv[3][3];

@@ -269,6 +269,7 @@ int ub_cpu_has_avx2_fma(void);
 /* scene.c / camera.c: derive the precomputed fields; return NULL or an error message. */
 const char *ub_object_prepare(ub_object *obj, double theta, const double slice_basis[4][3],
                               const double slice_origin[4], const double object_to_world[4][4]);
+double ub_det3(const double m[3][3]);
 /* Smallest and largest eigenvalue of a symmetric 3x3 matrix. */
 void ub_sym3_eigen_range(const double a[3][3], double *lmin, double *lmax);
 /* ifs.c: validate the maps and derive the bounding ball; NULL or an error message. */
