@@ -69,6 +69,16 @@ const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
     double f = fmin(fx, fy);
     cam->footprint0 = cam->orthographic ? f : 0.0;
     cam->footprint1 = cam->orthographic ? 0.0 : f;
+    /* Clip planes: an infinite far plane (a projection whose clip end sits at w = 0) would put
+     * infinite depths and positions into the passes. Clip planes are planes, so the image's
+     * corners and centre bound every pixel's clip range. */
+    static const double corners[5][2] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}, {0.5, 0.5}};
+    for (int i = 0; i < 5; i++) {
+        double o[3], d[3], t0, t1;
+        ub_camera_ray(cam, corners[i][0] * cam->width, corners[i][1] * cam->height, o, d, &t0, &t1);
+        if (!(isfinite(t0) && isfinite(t1) && t0 >= 0.0 && t1 > t0 && t1 < 1e30))
+            return "camera.projection must have finite clip planes, 0 <= clip start < clip end";
+    }
     return NULL;
 }
 

@@ -639,6 +639,20 @@ void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, floa
         for (size_t l = 0; l < n; l++) {
             estimate[base + l] = db[l];
             iterations[base + l] = ib[l];
+            /* Far points overflow float32 in the first iterations: inf/inf (NaN) or inf in the
+             * estimate, or inf - inf in the orbit, which then never "escapes" and reads as a hit (0).
+             * All impossible outside the bounding ball, where the set is not; the distance to the
+             * ball is a lower bound there, and the orbit escaped at once. (Renders never ask: rays
+             * are clipped to the ball.) */
+            if (!(db[l] > 0.0f && db[l] < INFINITY)) {
+                const float *p = xyz + 3 * (base + l);
+                double rel[3] = {p[0] - o->bound_center[0], p[1] - o->bound_center[1], p[2] - o->bound_center[2]};
+                double outside = sqrt(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]) - o->bound_radius;
+                if (outside > 0.0) {
+                    estimate[base + l] = (float)outside;
+                    iterations[base + l] = 0.0f;
+                }
+            }
         }
     }
 }

@@ -821,8 +821,15 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
         double bg[4];
         if (get_vector(background_o, "background", 4, bg))
             goto done;
-        for (int i = 0; i < 4; i++)
+        /* Finite is not enough: 1e300 would become an infinite float32 in every missed pixel. */
+        for (int i = 0; i < 4; i++) {
+            if (!(bg[i] >= 0.0 && bg[i] <= (i == 3 ? 1.0 : 1e6))) {
+                PyErr_SetString(PyExc_ValueError,
+                                "background must be (r, g, b, alpha) with colour within [0, 1e6], alpha within [0, 1]");
+                goto done;
+            }
             film.background[i] = (float)bg[i];
+        }
     }
     if (progress != Py_None && !PyCallable_Check(progress)) {
         PyErr_SetString(PyExc_TypeError, "progress must be callable (fraction -> cancel?) or None");

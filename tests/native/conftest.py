@@ -2,6 +2,7 @@
 
 The native module under test is the installed wheel (`unbound_core`); the float64 references
 come from reference/ at the repository root."""
+import os
 import pathlib
 import sys
 
@@ -10,8 +11,11 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
-# The wheel `make wheel` built, unpacked (the tests run the real compiled module).
-sys.path.insert(0, str(ROOT / "build" / "wheel"))
+# The wheel `make wheel` built, unpacked (the tests run the real compiled module), or the
+# sanitizer build of tools/sanitize.sh, which names itself in UNBOUND_CORE_PATH.
+sys.path.insert(0, os.environ.get("UNBOUND_CORE_PATH") or str(ROOT / "build" / "wheel"))
+# Under ASan/UBSan the core runs several times slower: timing checks are skipped there.
+SANITIZED = bool(os.environ.get("UNBOUND_SANITIZED"))
 
 import unbound_core as uc  # noqa: E402
 
