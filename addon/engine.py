@@ -64,8 +64,14 @@ def fractal_objects(depsgraph):
         if ob.name not in params:
             try:
                 params[ob.name] = properties.native_parameters(ob.unbound, depsgraph)
+                # The core checks every value (NaN from a keyframe, a slice that misses the set):
+                # ask it here, per object, so that the message names the object, not its index.
+                utils.native().describe(params[ob.name])
             except ValueError as exc:
-                raise RenderError("fractal '%s': %s" % (ob.name, exc)) from None
+                message = str(exc).replace("object.", "", 1)
+                if "finite" in message:  # NaN or infinity: animation is where these come from
+                    message += " (check its keyframes and drivers)"
+                raise RenderError("fractal '%s': %s" % (ob.name, message)) from None
         return dict(params[ob.name], matrix=[list(row) for row in matrix])
 
     return scene_instances(depsgraph, utils.is_fractal, describe)
