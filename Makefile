@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 WHEEL_GLOB := dist/unbound_core-*-cp311-abi3-*.whl
 NATIVE_SOURCES := $(wildcard native/src/*.c native/src/*.h native/unbound_core/*.py) native/setup.py native/pyproject.toml
 
-.PHONY: venv wheel extension test test-native bench demo gallery clean
+.PHONY: venv wheel extension test test-native bench demo gallery sanitize fuzz fuzz-ci clean
 
 venv: $(VENV)/.stamp
 $(VENV)/.stamp: requirements-dev.txt
@@ -57,6 +57,23 @@ gallery: extension
 	rm -rf build/gallery-user
 	mkdir -p build/gallery-user/config
 	BLENDER_USER_RESOURCES=$(CURDIR)/build/gallery-user $(PY) examples/gallery.py --out $(CURDIR)/docs/gallery
+
+# Reliability (tools/sanitize.sh): the native tests against an ASan + UBSan build with leaks checked
+# at exit; the coverage-guided fuzzer over the native API, bounded for CI (FUZZ_SECONDS) or the long
+# campaign (FUZZ_RUNS inputs). A crash stops the fuzzer and leaves its input in build/fuzz/.
+FUZZ_SECONDS ?= 180
+FUZZ_RUNS ?= 100000
+sanitize: venv
+	sh tools/sanitize.sh build
+	sh tools/sanitize.sh test
+
+fuzz-ci: venv
+	sh tools/sanitize.sh build
+	sh tools/sanitize.sh fuzz -max_total_time=$(FUZZ_SECONDS) -max_len=2048 -print_final_stats=1
+
+fuzz: venv
+	sh tools/sanitize.sh build
+	sh tools/sanitize.sh fuzz -runs=$(FUZZ_RUNS) -max_len=2048 -print_final_stats=1
 
 clean:
 	rm -rf dist native/build native/*.egg-info native/unbound_core/*.so

@@ -10,6 +10,11 @@ from mathutils import Vector
 from . import passes, properties, utils
 
 
+# Single precision carries 24 bits: a position is resolved to about 6e-8 of its size. Measured
+# (tests/native/test_precision.py): hit depths quantise into steps once one pixel covers less
+# than 1e-6 of the fractal's bounding radius, and shading shows facets below about 3e-7.
+PRECISION_LIMIT = 1e-6
+
 # Counters of the most recent render in this process (rays, steps, iterations, seconds, threads,
 # simd, cancelled), for scripts and tests.
 LAST_STATS = {}
@@ -36,8 +41,16 @@ def camera_description(engine, depsgraph, width, height):
     projection = cam_ob.calc_matrix_camera(depsgraph, x=width, y=height, scale_x=r.pixel_aspect_x,
                                            scale_y=r.pixel_aspect_y)
     matrix = engine.camera_model_matrix(cam_ob, use_spherical_stereo=False)
-    return dict(matrix=[list(row) for row in matrix], projection=[list(row) for row in projection],
-                width=width, height=height)
+    projection = [list(row) for row in projection]
+    # The depth row again in double precision, from the clip distances it was made of (Blender's
+    # perspective_m4 / orthographic_m4): in the float32 matrix a clip start of 1e-6 with a clip end
+    # of 100 rounds -(f + n) / (f - n) to -1, which puts the clip end at infinity.
+    near, far = cam_ob.data.clip_start, cam_ob.data.clip_end
+    if cam_ob.data.type == 'PERSP':
+        projection[2][2:] = [-(far + near) / (far - near), -2.0 * near * far / (far - near)]
+    else:
+        projection[2][2:] = [-2.0 / (far - near), -(far + near) / (far - near)]
+    return dict(matrix=[list(row) for row in matrix], projection=projection, width=width, height=height)
 
 
 def scene_instances(depsgraph, accept, describe):
@@ -181,6 +194,31 @@ def thread_count(scene):
     return r.threads if r.threads_mode == 'FIXED' else 0
 
 
+def precision_warning(core, camera, objects, depth):
+    """A message when the nearest hit's pixel footprint is finer than single precision resolves
+    (PRECISION_LIMIT of the largest fractal's bounding radius), else None."""
+    hits = depth[depth < 0.5 * core.BACKGROUND_DEPTH]
+    radii = []
+    for ob in objects:
+        radius = core.describe(ob)["bound_radius"]
+        scale = max(math.sqrt(sum(ob["matrix"][r][c] ** 2 for r in range(3))) for c in range(3))
+        if radius > 0:
+            radii.append(radius * scale)
+    if hits.size == 0 or not radii:
+        return None
+    projection = camera["projection"]
+    # Width of one pixel at unit distance (perspective) or on the image plane (orthographic).
+    per_pixel = 2.0 / (camera["width"] * abs(projection[0][0]))
+    orthographic = projection[3][2] == 0.0
+    footprint = per_pixel if orthographic else per_pixel * float(hits.min())
+    ratio = footprint / max(radii)
+    if ratio >= PRECISION_LIMIT:
+        return None
+    return ("a pixel covers %.1e of the fractal's size here, finer than single precision resolves "
+            "(%.0e): expect steps in depth and shading. Zoom out or move the camera back "
+            "(README: Precision)" % (ratio, PRECISION_LIMIT))
+
+
 def update_render_passes(engine, scene, view_layer):
     for p in passes.enabled(view_layer):
         engine.register_pass(scene, view_layer, p.name, p.channels, p.chan_id, p.kind)
@@ -207,6 +245,8 @@ def _render(engine, depsgraph):
     wanted = passes.enabled(view_layer)
     w, h = window[2], window[3]
     buffers = {p.native: np.empty((h, w, p.channels), np.float32) for p in wanted}
+    # Depth is always rendered: the precision check below reads it (one float per pixel).
+    buffers.setdefault("depth", np.empty((h, w, 1), np.float32))
     frame = scene.frame_current
     label = "Frame %d | %s" % (frame, view_layer.name)
     engine.update_stats("", "Unbound | %s | %d fractal object%s" % (label, len(objects), "" if len(objects) == 1 else "s"))
@@ -233,6 +273,9 @@ def _render(engine, depsgraph):
     if stats["cancelled"]:
         engine.update_stats("", "Unbound | %s | cancelled" % label)
         return
+    warning = precision_warning(core, camera, objects, buffers["depth"])
+    if warning:
+        engine.report({'WARNING'}, "Unbound: " + warning)
     elapsed = time.perf_counter() - started
     engine.update_progress(1.0)
     engine.update_stats("", "Unbound | %s | %.2f s | %.1f Mrays/s | %s, %d threads" % (

@@ -275,3 +275,26 @@ def test_thousand_renders_through_blender_with_flat_memory(run_bpy):
     print("RSS after 100..1000 renders (MB): " + ", ".join("%.1f" % (s / 2 ** 20) for s in samples))
     # 900 renders: a leaked 32x24 RGBA float pass per render would be 11 MB.
     assert growth < 3 * 2 ** 20, samples
+
+
+def test_zoom_beyond_single_precision_warns(run_bpy):
+    """A camera 1e-5 from the unit ball: a pixel covers ~2e-7 of the radius, below the 1e-6 that
+    float32 resolves (README: Precision). The render finishes and says so; from 3 units away it
+    says nothing."""
+    r = run_bpy(with_attempt("""
+        scene = S.empty_scene(32, 24)
+        S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0))
+        S.add_camera(scene, location=(0.0, -3.0, 0.0), clip_start=1e-6)
+        print("FAR_START")
+        far = attempt(scene)
+        print("FAR_END")
+        S.add_camera(scene, location=(0.0, -1.0 - 1e-5, 0.0), clip_start=1e-6)
+        near = attempt(scene)
+        S.report(far=far, near=near)
+    """))
+    assert r["far"] == ["ok", True] and r["near"] == ["ok", True]
+    out = r["_output"]
+    far_log = out[out.index("FAR_START"):out.index("FAR_END")]
+    assert "single precision" not in far_log
+    warnings = [line for line in out.splitlines() if "finer than single precision resolves" in line]
+    assert warnings and warnings[0].startswith("Warning: Unbound: a pixel covers 2."), warnings

@@ -125,3 +125,33 @@ def test_union_of_two_objects_takes_nearest():
     assert np.array_equal(both["depth"], np.minimum(a["depth"], b["depth"]))
     swapped, _ = render(cam, [right, left], ["depth", "alpha"])
     assert np.array_equal(swapped["depth"], both["depth"])
+
+
+HEAVY_SHADING = dict(samples=2, shadows="soft", reflection_depth=2, ao_strength=0.5, ao_samples=3, glow_strength=0.5,
+                     fog_density=0.1, sea=dict(height=-1.2, reflectivity=0.3),
+                     lights=[dict(type="area", position=(2.0, -2.0, 3.0), radius=0.4),
+                             dict(type="spot", position=(-2.0, -2.0, 2.0), direction=(1.0, 1.0, -1.0))])
+KIND_OBJECTS = {
+    "quaternion_julia": dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=14, reflectivity=0.3),
+    "quaternion_mandelbrot": dict(kind="quaternion_mandelbrot", max_iterations=12),
+    "julia_stack": dict(kind="julia_stack", path=[(-0.12, 0.75), (-0.8, 0.15)]),
+    "cubic_locus": dict(kind="cubic_locus", cubic_component="union", extent=1.2),
+    "ifs": dict(kind="ifs", ifs_depth=4, maps=[[[0.5, 0, 0, x], [0, 0.5, 0, y], [0, 0, 0.5, z]]
+                                               for x, y, z in ((-0.5, -0.3, -0.3), (0.5, -0.3, -0.3),
+                                                               (0, 0.5, -0.3), (0, 0, 0.5))]),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(KIND_OBJECTS))
+def test_every_kind_with_every_effect_is_bit_identical_for_threads_tiles_and_runs(kind):
+    """Shadows, reflections, AO, fog, glow, the sea and two samples: the passes' bytes do not
+    depend on the thread count (1, 2, 7), the tile size (1, 13, 64) or the run."""
+    cam = make_camera(61, 37)
+    obj = KIND_OBJECTS[kind]
+    ref, ref_stats = render(cam, [obj], threads=1, tile_size=32, shading=HEAVY_SHADING)
+    for threads, tile in [(2, 13), (7, 1), (7, 64), (1, 32)]:
+        out, stats = render(cam, [obj], threads=threads, tile_size=tile, shading=HEAVY_SHADING)
+        for k in ref:
+            assert ref[k].tobytes() == out[k].tobytes(), (kind, k, threads, tile)
+        assert stats["iterations"] == ref_stats["iterations"]
+    assert np.isfinite(ref["combined"]).all() and (ref["alpha"] > 0).any()

@@ -20,7 +20,8 @@ def test_far_points_get_a_finite_lower_bound(kind):
         obj["maps"] = [[[0.5, 0, 0, x], [0, 0.5, 0, 0], [0, 0, 0.5, 0]] for x in (-0.5, 0.5)]
     info = uc.describe(obj)
     centre, radius = np.array(info["bound_center"]), info["bound_radius"]
-    pts = np.array([[0.365, -1e30, 2.09], [3e38, 0, 0], [0, 0, -3e38], [1e20, 1e20, 1e20]], np.float32)
+    pts = np.array([[0.365, -1e30, 2.09], [3e38, 0, 0], [0, 0, -3e38], [1e20, 1e20, 1e20],
+                    [3.4e38, 3.4e38, 0.0]], np.float32)  # the last one's distance exceeds float32
     est = np.full(len(pts), np.nan, np.float32)
     its = np.full(len(pts), np.nan, np.float32)
     uc.estimate(obj, pts, est, its)
@@ -29,7 +30,7 @@ def test_far_points_get_a_finite_lower_bound(kind):
     # minus nothing, at most the distance to the ball's far side).
     far_side = np.linalg.norm(pts.astype(np.float64) - centre, axis=1) + radius
     assert np.all(est <= far_side * (1 + 1e-6)), (est, far_side)
-    assert np.all(est > 0)
+    assert np.all(est > 0) and np.all(np.isfinite(est)), est
 
 
 def test_background_beyond_float32_is_refused():

@@ -1,0 +1,65 @@
+"""A render farm's split of a frame range: one Blender renders frames 1-4 of a keyframed μ
+animation; two other Blenders render 1-2 and 3-4 with other thread counts and tile sizes, as two
+farm machines would. Every pass of every frame must have the same bits."""
+import numpy as np
+from exr import read_exr
+
+SCENE = """
+scene = S.empty_scene(48, 36)
+S.add_camera(scene)
+ob = S.add_fractal(mu=(-0.2, 0.8, 0.0, 0.0))
+ob.keyframe_insert("unbound.mu", frame=1)
+ob.unbound.mu = (-0.5, 0.5, 0.1, 0.0)
+ob.keyframe_insert("unbound.mu", frame=4)
+ob.unbound.reflectivity = 0.3
+scene.unbound.shadows = 'SOFT'
+scene.unbound.reflection_depth = 2
+scene.unbound.ao_strength = 0.5
+scene.unbound.samples = 2
+scene.unbound.use_sea = True
+scene.unbound.sea_height = -1.2
+layer = scene.view_layers[0].unbound
+for name in ("depth", "normal", "position", "iterations", "shadow", "reflection", "ao"):
+    setattr(layer, "use_pass_" + name, True)
+ims = scene.render.image_settings
+if bpy.app.version >= (5, 0, 0):
+    ims.media_type = 'MULTI_LAYER_IMAGE'
+else:
+    ims.file_format = 'OPEN_EXR_MULTILAYER'
+ims.color_depth = '32'
+ims.exr_codec = 'ZIP'
+scene.render.threads_mode = 'FIXED'
+"""
+
+
+def render_range(run_bpy, prefix, first, last, threads, tile):
+    r = run_bpy(SCENE + """
+import os
+scene.frame_start, scene.frame_end = %d, %d
+scene.render.threads = %d
+scene.unbound.tile_size = %d
+scene.render.filepath = os.path.join(os.environ["UNBOUND_TEST_TMP"], %r)
+bpy.ops.render.render(animation=True)
+S.report(stats=dict(mod.engine.LAST_STATS))
+""" % (first, last, threads, tile, prefix))
+    assert r["stats"]["threads"] == threads, r["stats"]
+    return r
+
+
+def test_frame_range_split_over_two_processes_is_bit_identical(run_bpy, tmp_path):
+    render_range(run_bpy, "whole_", 1, 4, threads=2, tile=32)
+    render_range(run_bpy, "farm_", 1, 2, threads=7, tile=13)
+    render_range(run_bpy, "farm_", 3, 4, threads=1, tile=64)
+    previous = None
+    for frame in (1, 2, 3, 4):
+        whole = read_exr(tmp_path / ("whole_%04d.exr" % frame))
+        farm = read_exr(tmp_path / ("farm_%04d.exr" % frame))
+        assert sorted(whole) == sorted(farm) and len(whole) >= 12, sorted(whole)
+        for channel in whole:
+            assert whole[channel].tobytes() == farm[channel].tobytes(), (frame, channel)
+        # The animation moves: consecutive frames differ (the comparison is not of empty images).
+        depth = whole["ViewLayer.Depth.Z"]
+        assert (depth < 1e9).mean() > 0.05
+        if previous is not None:
+            assert not np.array_equal(previous, depth), frame
+        previous = depth
