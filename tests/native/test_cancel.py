@@ -18,7 +18,7 @@ HEAVY_SHADING = dict(shadows="soft", reflection_depth=2, sea=dict(height=-1.1, r
                      lights=[dict(type="area", position=(2.0, -2.0, 3.0), radius=0.5, color=(3.0, 3.0, 3.0))])
 BUDGET_S = 0.1
 # When to cancel, as fractions of the uncancelled render's time.
-MOMENTS = (0.03, 0.2, 0.45, 0.7, 0.9)
+MOMENTS = (0.03, 0.2, 0.4, 0.55, 0.7)
 
 
 def render_heavy(width=1920, height=1080, **kw):
@@ -71,6 +71,7 @@ def test_cancel_by_progress_callback_within_budget(full_time):
             return "t" in state
 
         stats, _, _ = render_heavy(progress=progress, poll_interval=0.02)
+        assert "t" in state, "the render finished before the cancel moment: is the machine busy?"
         latencies.append(time.perf_counter() - state["t"])
         assert stats["cancelled"] is True
     print("cancel latencies (ms): " + ", ".join("%.1f" % (x * 1000) for x in latencies))
