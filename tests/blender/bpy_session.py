@@ -72,14 +72,19 @@ def fcurve(ob, data_path, index=0):
     return bag.fcurves.find(data_path, index=index)
 
 
-def render_to_exr(scene, name="result.exr"):
-    """F12 through Blender's pipeline, written as a 32-bit multilayer EXR of every pass."""
+def exr_output(scene):
+    """Render output as a 32-bit multilayer EXR of every pass (4.x and 5.x spell it differently)."""
     ims = scene.render.image_settings
     if bpy.app.version >= (5, 0, 0):
         ims.media_type = 'MULTI_LAYER_IMAGE'
     else:
         ims.file_format = 'OPEN_EXR_MULTILAYER'
     ims.color_depth = '32'
+
+
+def render_to_exr(scene, name="result.exr"):
+    """F12 through Blender's pipeline, written as a 32-bit multilayer EXR of every pass."""
+    exr_output(scene)
     path = pathlib.Path(os.environ["UNBOUND_TEST_TMP"]) / name
     scene.render.filepath = str(path)
     bpy.ops.render.render(write_still=True)

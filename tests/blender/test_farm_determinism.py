@@ -21,13 +21,7 @@ scene.unbound.sea_height = -1.2
 layer = scene.view_layers[0].unbound
 for name in ("depth", "normal", "position", "iterations", "shadow", "reflection", "ao"):
     setattr(layer, "use_pass_" + name, True)
-ims = scene.render.image_settings
-if bpy.app.version >= (5, 0, 0):
-    ims.media_type = 'MULTI_LAYER_IMAGE'
-else:
-    ims.file_format = 'OPEN_EXR_MULTILAYER'
-ims.color_depth = '32'
-ims.exr_codec = 'ZIP'
+S.exr_output(scene)
 scene.render.threads_mode = 'FIXED'
 """
 

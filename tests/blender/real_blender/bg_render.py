@@ -6,22 +6,19 @@ import json
 import sys
 import time
 
+import os
+
 import bpy
-from mathutils import Vector
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scene import camera_scene  # noqa: E402
 
 MODULE = "bl_ext.user_default.unbound"
 out = sys.argv[sys.argv.index("--") + 1]
 result = {"blender": bpy.app.version_string, "python": sys.version.split()[0],
           "addon_enabled": MODULE in bpy.context.preferences.addons}
 
-scene = bpy.context.scene
-for ob in list(scene.objects):  # the startup scene's cube, light and camera
-    bpy.data.objects.remove(ob)
-cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-scene.collection.objects.link(cam)
-cam.location = (0.4, -3.0, 0.9)
-cam.rotation_euler = (Vector((0, 0, 0)) - cam.location).to_track_quat('-Z', 'Y').to_euler()
-scene.camera = cam
+scene = camera_scene()
 result["add_op"] = sorted(bpy.ops.object.unbound_fractal_add(use_cursor=False))
 result["fractal"] = bpy.context.object.name if bpy.context.object else None
 
