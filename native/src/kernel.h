@@ -13,6 +13,7 @@
 
 #include "scene.h"
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -649,7 +650,8 @@ void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, floa
                 double rel[3] = {p[0] - o->bound_center[0], p[1] - o->bound_center[1], p[2] - o->bound_center[2]};
                 double outside = sqrt(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]) - o->bound_radius;
                 if (outside > 0.0) {
-                    estimate[base + l] = (float)outside;
+                    /* Beyond float32's range the distance rounds down to its largest value. */
+                    estimate[base + l] = (float)fmin(outside, FLT_MAX);
                     iterations[base + l] = 0.0f;
                 }
             }
