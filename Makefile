@@ -63,16 +63,17 @@ gallery: extension
 # campaign (FUZZ_RUNS inputs). A crash stops the fuzzer and leaves its input in build/fuzz/.
 FUZZ_SECONDS ?= 180
 FUZZ_RUNS ?= 100000
-sanitize: venv
+SANITIZED := build/sanitize/unbound_core/_native.abi3.so
+$(SANITIZED): $(VENV)/.stamp $(NATIVE_SOURCES) tools/sanitize.sh
 	sh tools/sanitize.sh build
+
+sanitize: $(SANITIZED)
 	sh tools/sanitize.sh test
 
-fuzz-ci: venv
-	sh tools/sanitize.sh build
+fuzz-ci: $(SANITIZED)
 	sh tools/sanitize.sh fuzz -max_total_time=$(FUZZ_SECONDS) -max_len=2048 -print_final_stats=1
 
-fuzz: venv
-	sh tools/sanitize.sh build
+fuzz: $(SANITIZED)
 	sh tools/sanitize.sh fuzz -runs=$(FUZZ_RUNS) -max_len=2048 -print_final_stats=1
 
 clean:

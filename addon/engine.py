@@ -2,6 +2,7 @@
 
 The RenderEngine class (in __init__.py) only forwards its callbacks here."""
 import math
+import re
 import time
 
 import numpy as np
@@ -63,31 +64,39 @@ def scene_instances(depsgraph, accept, describe):
         if accept(ob):
             desc = describe(ob, inst.matrix_world)
             if desc is not None:
-                found.append(((ob.name, inst.is_instance, inst.random_id), desc))
+                found.append(((ob.name_full, inst.is_instance, inst.random_id), desc))
     found.sort(key=lambda item: item[0])
     return [desc for _, desc in found]
 
 
-def fractal_objects(depsgraph):
-    """Native dicts for every visible fractal object (instances included), in a stable order.
-    The parameters (colour ramp included) are derived once per object, the matrix per instance."""
-    params = {}
+def fractal_instances(depsgraph):
+    """(native dict, world bounding radius) of every visible fractal object (instances included),
+    in a stable order. The parameters (colour ramp included) are derived and checked by the core
+    once per object, the matrix per instance."""
+    checked = {}
 
     def describe(ob, matrix):
-        if ob.name not in params:
+        key = ob.name_full  # a linked object may share its name with a local one
+        if key not in checked:
             try:
-                params[ob.name] = properties.native_parameters(ob.unbound, depsgraph)
+                params = properties.native_parameters(ob.unbound, depsgraph)
                 # The core checks every value (NaN from a keyframe, a slice that misses the set):
                 # ask it here, per object, so that the message names the object, not its index.
-                utils.native().describe(params[ob.name])
+                checked[key] = params, utils.native().describe(params)["bound_radius"]
             except ValueError as exc:
-                message = str(exc).replace("object.", "", 1)
+                message = re.sub(r"^object[.:]\s*", "", str(exc))
                 if "finite" in message:  # NaN or infinity: animation is where these come from
                     message += " (check its keyframes and drivers)"
                 raise RenderError("fractal '%s': %s" % (ob.name, message)) from None
-        return dict(params[ob.name], matrix=[list(row) for row in matrix])
+        params, radius = checked[key]
+        return dict(params, matrix=[list(row) for row in matrix]), radius * max(map(abs, matrix.to_scale()))
 
     return scene_instances(depsgraph, utils.is_fractal, describe)
+
+
+def fractal_objects(depsgraph):
+    """Native dicts for every visible fractal object (instances included), in a stable order."""
+    return [params for params, _ in fractal_instances(depsgraph)]
 
 
 def image_window(scene):
@@ -194,16 +203,11 @@ def thread_count(scene):
     return r.threads if r.threads_mode == 'FIXED' else 0
 
 
-def precision_warning(core, camera, objects, depth):
+def precision_warning(core, camera, radii, depth):
     """A message when the nearest hit's pixel footprint is finer than single precision resolves
-    (PRECISION_LIMIT of the largest fractal's bounding radius), else None."""
+    (PRECISION_LIMIT of the largest fractal's bounding radius in the world), else None."""
     hits = depth[depth < 0.5 * core.BACKGROUND_DEPTH]
-    radii = []
-    for ob in objects:
-        radius = core.describe(ob)["bound_radius"]
-        scale = max(math.sqrt(sum(ob["matrix"][r][c] ** 2 for r in range(3))) for c in range(3))
-        if radius > 0:
-            radii.append(radius * scale)
+    radii = [r for r in radii if r > 0]  # -1: a slice that misses the set
     if hits.size == 0 or not radii:
         return None
     projection = camera["projection"]
@@ -240,7 +244,8 @@ def _render(engine, depsgraph):
     core = utils.native()
     width, height, window = image_window(scene)
     camera = camera_description(engine, depsgraph, width, height)
-    objects = fractal_objects(depsgraph)
+    instances = fractal_instances(depsgraph)
+    objects = [params for params, _ in instances]
     shading = shading_description(depsgraph)
     wanted = passes.enabled(view_layer)
     w, h = window[2], window[3]
@@ -273,7 +278,7 @@ def _render(engine, depsgraph):
     if stats["cancelled"]:
         engine.update_stats("", "Unbound | %s | cancelled" % label)
         return
-    warning = precision_warning(core, camera, objects, buffers["depth"])
+    warning = precision_warning(core, camera, [radius for _, radius in instances], buffers["depth"])
     if warning:
         engine.report({'WARNING'}, "Unbound: " + warning)
     elapsed = time.perf_counter() - started

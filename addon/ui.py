@@ -256,6 +256,12 @@ class UNBOUND_PT_light(UnboundPanel, bpy.types.Panel):
         col.separator()
         if light.type in {'POINT', 'SPOT'}:
             col.prop(light, "shadow_soft_size", text="Radius")
+            if hasattr(light, "use_soft_falloff"):
+                col.prop(light, "use_soft_falloff")
+            if light.type == 'SPOT':
+                col.separator()
+                col.prop(light, "spot_size", text="Spot Size")
+                col.prop(light, "spot_blend", text="Blend")
         elif light.type == 'SUN':
             col.prop(light, "angle")
         elif light.type == 'AREA':
@@ -292,7 +298,11 @@ classes = (UNBOUND_UL_ifs_maps, UNBOUND_PT_fractal, UNBOUND_PT_fractal_slice, UN
 # about features Unbound does not have.
 _EXCLUDE = {"RENDER_PT_eevee_performance", "RENDER_PT_color_management", "RENDER_PT_simplify",
             "RENDER_PT_freestyle", "VIEWLAYER_PT_layer_passes", "VIEWLAYER_PT_eevee_layer_passes_data",
-            "RENDER_PT_gpencil"}
+            "RENDER_PT_gpencil",
+            # UNBOUND_PT_light draws what Unbound reads of a light; DATA_PT_spot hangs under an
+            # EEVEE panel that never shows for Unbound. Light probes are not used.
+            "DATA_PT_light", "DATA_PT_spot", "DATA_PT_lightprobe", "DATA_PT_lightprobe_visibility",
+            "DATA_PT_lightprobe_parallax", "DATA_PT_lightprobe_display", "DATA_PT_context_lightprobe"}
 _added = []
 
 

@@ -24,11 +24,18 @@ ATHERIS_VERSION=3.0.0
 say() { echo "sanitize: $*" >&2; }
 die() { say "error: $*"; exit 1; }
 
+# clang and its sanitizer runtime (Debian ships the runtime as a Recommends of clang).
 need_clang() {
-	command -v clang >/dev/null 2>&1 && return
-	[ "$(id -u)" = 0 ] || die "clang is missing (apt-get install clang)"
+	if command -v clang >/dev/null 2>&1 && [ -f "$(clang -print-file-name=libclang_rt.asan-x86_64.so)" ]; then
+		return
+	fi
+	[ "$(id -u)" = 0 ] || die "clang or its sanitizer runtime is missing (apt-get install clang libclang-rt-N-dev)"
 	say "installing clang"
-	DEBIAN_FRONTEND=noninteractive apt-get install -y -q clang >/dev/null
+	export DEBIAN_FRONTEND=noninteractive
+	apt-get update -q >/dev/null
+	command -v clang >/dev/null 2>&1 || apt-get install -y -q clang >/dev/null
+	[ -f "$(clang -print-file-name=libclang_rt.asan-x86_64.so)" ] ||
+		apt-get install -y -q "libclang-rt-$(clang -dumpversion | cut -d. -f1)-dev" >/dev/null
 }
 
 need_atheris() {
@@ -80,6 +87,7 @@ build)
 	;;
 test)
 	shift
+	need_clang
 	[ -f "$OUT/unbound_core/_native.abi3.so" ] || build
 	log=$ROOT/build/sanitize-test.log
 	# Timing tests are skipped (UNBOUND_SANITIZED): the sanitizers slow the core several-fold.

@@ -414,16 +414,18 @@ static inline void UB_FN(quaternion_lanes)(const ub_object *o, const double p[3]
  * eq. 15's central differences of d() or G() with the step h (object units), or the analytic
  * gradient. A degenerate gradient (all samples inside the set, or G flat) falls back to the
  * analytic normal, and that to zero (the caller then faces the normal to the viewer). */
-static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *dp, const vf q[4], vf h, int method,
-                                 vf g[3])
+static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *dp, const vf q[4], vf h, vf g[3])
 {
+    int method = (int)o->normal_method;
     vf dist, it;
     UB_FN(ub_de_extra) x;
     vm good = m_false(); /* lanes with a usable gradient */
     /* Only the quaternion kinds carry a Jacobian, and the IFS has no potential: the others use
      * the distance gradient. */
     int quaternion = o->kind == UB_KIND_QUATERNION_JULIA || o->kind == UB_KIND_QUATERNION_MANDELBROT;
-    if ((method == UB_NORMAL_ANALYTIC && !quaternion) || (method == UB_NORMAL_GRADIENT_POTENTIAL && o->kind == UB_KIND_IFS))
+    /* Z-buffer normals come from the hit buffer; here (neighbours unknown) the distance gradient. */
+    if (method == UB_NORMAL_ZBUFFER || (method == UB_NORMAL_ANALYTIC && !quaternion)
+        || (method == UB_NORMAL_GRADIENT_POTENTIAL && o->kind == UB_KIND_IFS))
         method = UB_NORMAL_GRADIENT_DISTANCE;
     if (method != UB_NORMAL_ANALYTIC) {
         const int potential = method == UB_NORMAL_GRADIENT_POTENTIAL;
@@ -448,6 +450,12 @@ static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *
     }
     if (m_bits(good) == 0xff)
         return;
+    if (!quaternion) {
+        /* No analytic fallback for the other kinds: zero, without running their estimator again. */
+        for (int k = 0; k < 3; k++)
+            g[k] = v_select(good, g[k], v_set1(0.0f));
+        return;
+    }
     UB_FN(de_ext)(dp, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
     for (int k = 0; k < 3; k++)
         g[k] = method == UB_NORMAL_ANALYTIC ? x.normal[k] : v_select(good, g[k], x.normal[k]);

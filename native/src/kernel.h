@@ -217,8 +217,7 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
         UB_FN(quaternion_lanes)(o, back_p, qv);
         if (simd_lanes) {
             vf g[3];
-            int method = o->normal_method == UB_NORMAL_ZBUFFER ? UB_NORMAL_GRADIENT_DISTANCE : (int)o->normal_method;
-            UB_FN(object_normal)(o, &dps[k], qv, v_load(hb_), method, g);
+            UB_FN(object_normal)(o, &dps[k], qv, v_load(hb_), g);
             float gb[3][UB_LANES];
             for (int a = 0; a < 3; a++)
                 v_store(gb[a], g[a]);
@@ -663,7 +662,6 @@ void UB_FN(ub_normals)(const ub_object *o, const float *xyz, const float *t, siz
 {
     UB_FN(ub_de_params) dp;
     UB_FN(de_params)(o, NULL, &dp);
-    int method = o->normal_method == UB_NORMAL_ZBUFFER ? UB_NORMAL_GRADIENT_DISTANCE : (int)o->normal_method;
     for (size_t base = 0; base < count; base += UB_LANES) {
         float q[4][UB_LANES], h[UB_LANES];
         size_t n = count - base < UB_LANES ? count - base : UB_LANES;
@@ -677,7 +675,7 @@ void UB_FN(ub_normals)(const ub_object *o, const float *xyz, const float *t, siz
             h[l] = (float)(UB_FN(gradient_step)(o, t[i]) / o->sigma_min);
         }
         vf qv[4] = {v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3])}, g[3];
-        UB_FN(object_normal)(o, &dp, qv, v_load(h), method, g);
+        UB_FN(object_normal)(o, &dp, qv, v_load(h), g);
         float gb[3][UB_LANES];
         for (int a = 0; a < 3; a++)
             v_store(gb[a], g[a]);

@@ -100,6 +100,9 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
      * the hit and the last sample before it, without per-step bookkeeping. */
     vf s = v_set1(0.0f), prev = s, iter_sum = s, dist = s, iters = s, dw = s;
     vm active = m_from_bits(lanes), hit = m_false();
+    /* A cancelled march returns no hits (its caller still reads the result). */
+    res->hit = hit;
+    res->s = res->iters = res->dist = s;
     for (int step = 0; step < o->max_steps && m_bits(active); step++) {
         if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
             return;
