@@ -101,6 +101,23 @@ def exit_without_finalizing():
     os._exit(0)
 
 
+def attempt(scene, name="attempt.png"):
+    """F12 with write_still, as a script does it: ("ok" or Blender's error message, whether the
+    PNG exists afterwards). Blender writes the still only when the render succeeded, so a failed
+    render must leave no file behind (an older one is removed first)."""
+    path = pathlib.Path(os.environ["UNBOUND_TEST_TMP"]) / name
+    scene.render.filepath = str(path)
+    scene.render.image_settings.file_format = 'PNG'
+    path.unlink(missing_ok=True)
+    try:
+        bpy.ops.render.render(write_still=True)
+        outcome = "ok"
+    except RuntimeError as exc:
+        # The report appears twice (report() and error_set()): the first line is the message.
+        outcome = str(exc).strip().splitlines()[0]
+    return outcome, path.exists()
+
+
 def report(**values):
     """Hands results back to the pytest process (JSON on the last stdout line)."""
     import json

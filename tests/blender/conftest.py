@@ -21,7 +21,7 @@ def run_bpy(tmp_path):
     def run(code, timeout=300, install=True, python=None, env=None, expect_rc=0):
         user = tmp_path / "user"
         (user / "config").mkdir(parents=True, exist_ok=True)
-        header = "import sys\nsys.path.insert(0, %r)\nimport bpy_session as S\nimport bpy\n" % str(HERE)
+        header = "import os\nimport sys\nsys.path.insert(0, %r)\nimport bpy_session as S\nimport bpy\n" % str(HERE)
         if install:
             header += "mod = S.install_extension(%r)\n" % str(extension_zip())
         script = tmp_path / "script.py"

@@ -5,43 +5,16 @@ between frames, the native module gone, the add-on disabled and re-enabled, scri
 What must hold every time: Blender keeps running (the script reaches its end), a failure is one
 clear report ("Unbound: ..." naming the object and the value, or Blender's own message), never a
 Python traceback, and the output file is either a complete image or not written at all."""
-import textwrap
-
 import pytest
 from exr import read_png
-
-# Shared by the scripts: one render attempt -> (outcome, file written?). A failed render must
-# leave no file behind (Blender writes the still only when the render succeeded).
-ATTEMPT = """
-import os
-OUT = os.path.join(os.environ["UNBOUND_TEST_TMP"], "attempt.png")
-
-def attempt(scene, **kw):
-    scene.render.filepath = OUT
-    scene.render.image_settings.file_format = 'PNG'
-    if os.path.exists(OUT):
-        os.remove(OUT)
-    try:
-        bpy.ops.render.render(write_still=True, **kw)
-        outcome = "ok"
-    except RuntimeError as exc:
-        # The report appears twice (report() and error_set()): the first line is the message.
-        outcome = str(exc).strip().splitlines()[0]
-    return outcome, os.path.exists(OUT)
-"""
-
-
-def with_attempt(body):
-    return ATTEMPT + textwrap.dedent(body)
-
 
 def clear(outcome):
     """A message a user can act on: Unbound's own report or Blender's."""
     return outcome == "ok" or outcome.startswith("Error: Unbound: ") or outcome.startswith("Error: Cannot render")
 
 
-def test_every_property_at_and_beyond_its_limits(run_bpy, tmp_path):
-    r = run_bpy(with_attempt("""
+def test_every_property_at_and_beyond_its_limits(run_bpy):
+    r = run_bpy("""
         import math
         scene = S.empty_scene(16, 12)
         S.add_camera(scene)
@@ -69,11 +42,11 @@ def test_every_property_at_and_beyond_its_limits(run_bpy, tmp_path):
                         rows.append([name, label, "set refused: %s" % exc, False, None, True])
                         continue
                     within = all(p.hard_min <= v <= p.hard_max for v in stored if v == v)
-                    outcome, written = attempt(scene)
+                    outcome, written = S.attempt(scene)
                     rows.append([name, label, outcome, written, repr(stored[0]), within])
                 setattr(owner, name, saved)
         S.report(rows=rows, name=ob.name)
-    """), timeout=900)
+    """, timeout=900)
     rows = r["rows"]
     assert len(rows) > 150, len(rows)
     for name, label, outcome, written, stored, within in rows:
@@ -91,7 +64,7 @@ def test_every_property_at_and_beyond_its_limits(run_bpy, tmp_path):
 
 
 def test_nan_drivers_and_wild_keyframes_over_an_animation(run_bpy, tmp_path):
-    r = run_bpy(with_attempt("""
+    r = run_bpy("""
         import math
         scene = S.empty_scene(16, 12)
         S.add_camera(scene)
@@ -111,7 +84,7 @@ def test_nan_drivers_and_wild_keyframes_over_an_animation(run_bpy, tmp_path):
         frames = []
         for f in range(1, 8):
             scene.frame_set(f)
-            outcome, written = attempt(scene)
+            outcome, written = S.attempt(scene)
             frames.append([f, outcome, written, ob.unbound.theta if ob.unbound.theta == ob.unbound.theta else "nan",
                            ob.unbound.mu[1]])
         # The same range as one animation render: it stops at the first bad frame, with a report.
@@ -125,7 +98,7 @@ def test_nan_drivers_and_wild_keyframes_over_an_animation(run_bpy, tmp_path):
         files = sorted(n for n in os.listdir(os.environ["UNBOUND_TEST_TMP"]) if n.startswith("anim_"))
         S.report(frames=frames, anim=anim, files=files, name=ob.name)
         S.exit_without_finalizing()  # bpy 4.2's own exit crash after Python drivers (see there)
-    """))
+    """)
     frames = {f: (outcome, written, theta, mu1) for f, outcome, written, theta, mu1 in r["frames"]}
     assert frames[1][0] == "ok" and frames[1][2] == 0.0 and frames[1][3] == pytest.approx(0.8)
     assert frames[2][0] == "ok" and frames[2][2] == 1e6 and frames[2][3] == 0.0  # clamped; NaN driver -> 0
@@ -142,21 +115,21 @@ def test_nan_drivers_and_wild_keyframes_over_an_animation(run_bpy, tmp_path):
 
 
 def test_camera_and_fractal_deleted_between_frames(run_bpy, tmp_path):
-    r = run_bpy(with_attempt("""
+    r = run_bpy("""
         scene = S.empty_scene(16, 12)
         S.add_camera(scene)
         ob = S.add_fractal()
         ob.keyframe_insert("unbound.mu", frame=1)
         steps = []
         scene.frame_set(1)
-        steps.append(attempt(scene))
+        steps.append(S.attempt(scene))
         bpy.data.objects.remove(scene.camera)
         scene.frame_set(2)
-        steps.append(attempt(scene))
+        steps.append(S.attempt(scene))
         S.add_camera(scene)
         bpy.data.objects.remove(ob)
         scene.frame_set(3)
-        steps.append(attempt(scene))
+        steps.append(S.attempt(scene))
         # Deleted from a frame-change handler in the middle of an animation render.
         name = S.add_fractal().name
         scene.render.film_transparent = True
@@ -171,7 +144,7 @@ def test_camera_and_fractal_deleted_between_frames(run_bpy, tmp_path):
         bpy.ops.render.render(animation=True)
         bpy.app.handlers.frame_change_pre.remove(delete_fractal)
         S.report(steps=steps, fractals=[o.name for o in bpy.data.objects if o.type == 'EMPTY'])
-    """))
+    """)
     (first, no_camera, no_fractal) = r["steps"]
     assert first == ["ok", True]
     assert no_camera[0].startswith("Error: Cannot render, no camera") and no_camera[1] is False
@@ -184,7 +157,7 @@ def test_camera_and_fractal_deleted_between_frames(run_bpy, tmp_path):
 
 
 def test_native_module_missing_disable_reenable_and_reload(run_bpy):
-    r = run_bpy(with_attempt("""
+    r = run_bpy("""
         import glob
         import sys
         import addon_utils
@@ -193,22 +166,22 @@ def test_native_module_missing_disable_reenable_and_reload(run_bpy):
         ob = S.add_fractal(mu=(-0.4, 0.6, 0.0, 0.0))
         ob.unbound.theta = 0.7
         seen = {}
-        seen["first"] = attempt(scene)
+        seen["first"] = S.attempt(scene)
 
         # Disabled and enabled again: the object keeps its settings, the render still works.
         addon_utils.disable(S.MODULE, default_set=True)
         addon_utils.enable(S.MODULE, default_set=True)
         seen["reenabled"] = [S.MODULE in bpy.context.preferences.addons, tuple(round(v, 6) for v in ob.unbound.mu),
                              round(ob.unbound.theta, 6)]
-        seen["after_reenable"] = attempt(scene)
+        seen["after_reenable"] = S.attempt(scene)
 
         # Reload Scripts (F3 > Reload Scripts): the add-on re-registers.
         seen["reload"] = sorted(bpy.ops.script.reload())
-        seen["after_reload"] = attempt(scene)
+        seen["after_reload"] = S.attempt(scene)
 
         S.report(**seen)
         S.exit_without_finalizing()  # bpy 4.2's own exit crash after Reload Scripts (see there)
-    """))
+    """)
     assert r["first"] == ["ok", True]
     assert r["reenabled"] == [True, [-0.4, 0.6, 0.0, 0.0], 0.7]
     assert r["after_reenable"] == ["ok", True]
@@ -219,7 +192,7 @@ def test_native_module_missing_disable_reenable_and_reload(run_bpy):
     # overwritten in place, then Blender started again with the extension in the same user folder.
     # (Disabling and enabling would not do: Blender removes a disabled extension's wheels and
     # installs them again on enable.)
-    r = run_bpy(with_attempt("""
+    r = run_bpy("""
         import glob
         import addon_utils
         user = os.environ["BLENDER_USER_RESOURCES"]
@@ -234,9 +207,9 @@ def test_native_module_missing_disable_reenable_and_reload(run_bpy):
         S.add_camera(scene)
         seen["add"] = sorted(bpy.ops.object.unbound_fractal_add(use_cursor=False))
         scene.frame_set(2)  # depsgraph handlers run
-        seen["render"] = attempt(scene)
+        seen["render"] = S.attempt(scene)
         S.report(**seen)
-    """), install=False)
+    """, install=False)
     assert r["libs_damaged"] == 1 and r["enabled"] is True
     assert r["add"] == ["FINISHED"]
     outcome, written = r["render"]
@@ -281,17 +254,17 @@ def test_zoom_beyond_single_precision_warns(run_bpy):
     """A camera 1e-5 from the unit ball: a pixel covers ~2e-7 of the radius, below the 1e-6 that
     float32 resolves (README: Precision). The render finishes and says so; from 3 units away it
     says nothing."""
-    r = run_bpy(with_attempt("""
+    r = run_bpy("""
         scene = S.empty_scene(32, 24)
         S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0))
         S.add_camera(scene, location=(0.0, -3.0, 0.0), clip_start=1e-6)
         print("FAR_START")
-        far = attempt(scene)
+        far = S.attempt(scene)
         print("FAR_END")
         S.add_camera(scene, location=(0.0, -1.0 - 1e-5, 0.0), clip_start=1e-6)
-        near = attempt(scene)
+        near = S.attempt(scene)
         S.report(far=far, near=near)
-    """))
+    """)
     assert r["far"] == ["ok", True] and r["near"] == ["ok", True]
     out = r["_output"]
     far_log = out[out.index("FAR_START"):out.index("FAR_END")]

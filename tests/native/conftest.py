@@ -90,7 +90,8 @@ def estimate(obj, points):
     """uc.estimate at points (n, 3), rounded to float32 as the core reads them: (estimate,
     escape count, the points as float64)."""
     pts = np.ascontiguousarray(points, np.float32)
-    est, it = np.empty(len(pts), np.float32), np.empty(len(pts), np.float32)
+    # NaN-filled: a slot the core failed to write shows as NaN, never as stale memory.
+    est, it = np.full(len(pts), np.nan, np.float32), np.full(len(pts), np.nan, np.float32)
     uc.estimate(obj, pts, est, it)
     return est, it, pts.astype(np.float64)
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import alloc_passes, make_camera
+from conftest import alloc_passes, estimate, make_camera
 
 
 @pytest.mark.parametrize("kind", ["quaternion_julia", "quaternion_mandelbrot", "cubic_locus", "julia_stack", "ifs"])
@@ -20,15 +20,12 @@ def test_far_points_get_a_finite_lower_bound(kind):
         obj["maps"] = [[[0.5, 0, 0, x], [0, 0.5, 0, 0], [0, 0, 0.5, 0]] for x in (-0.5, 0.5)]
     info = uc.describe(obj)
     centre, radius = np.array(info["bound_center"]), info["bound_radius"]
-    pts = np.array([[0.365, -1e30, 2.09], [3e38, 0, 0], [0, 0, -3e38], [1e20, 1e20, 1e20],
-                    [3.4e38, 3.4e38, 0.0]], np.float32)  # the last one's distance exceeds float32
-    est = np.full(len(pts), np.nan, np.float32)
-    its = np.full(len(pts), np.nan, np.float32)
-    uc.estimate(obj, pts, est, its)
+    est, _, pts = estimate(obj, [[0.365, -1e30, 2.09], [3e38, 0, 0], [0, 0, -3e38], [1e20, 1e20, 1e20],
+                                 [3.4e38, 3.4e38, 0.0]])  # the last one's distance exceeds float32
     assert not np.isnan(est).any(), est
     # Never more than the true distance to the set (which is at least the distance to the ball
     # minus nothing, at most the distance to the ball's far side).
-    far_side = np.linalg.norm(pts.astype(np.float64) - centre, axis=1) + radius
+    far_side = np.linalg.norm(pts - centre, axis=1) + radius
     assert np.all(est <= far_side * (1 + 1e-6)), (est, far_side)
     assert np.all(est > 0) and np.all(np.isfinite(est)), est
 
