@@ -32,14 +32,14 @@ static void UB_FN(pixel_ray)(const ub_camera *cam, int px, int py, const double 
     ub_camera_ray(cam, px + off[0], py + off[1], o, d, t_min, t_max);
 }
 
-/* Camera rays of the n pixels (px, py) .. (px + n - 1, py); padding lanes repeat the last real
+/* Camera rays of the n pixels (px + step l, py), l < n; padding lanes repeat the last real
  * pixel (their results are discarded). */
-static void UB_FN(camera_packet)(const ub_camera *cam, int px, int py, int n, const double off[2],
+static void UB_FN(camera_packet)(const ub_camera *cam, int px, int py, int step, int n, const double off[2],
                                  UB_FN(ub_packet_rays) *pr)
 {
     for (int l = 0; l < UB_LANES; l++) {
         double o[3], d[3];
-        UB_FN(pixel_ray)(cam, px + (l < n ? l : n - 1), py, off, o, d, &pr->t_min[l], &pr->t_max[l]);
+        UB_FN(pixel_ray)(cam, px + step * (l < n ? l : n - 1), py, off, o, d, &pr->t_min[l], &pr->t_max[l]);
         for (int i = 0; i < 3; i++) {
             pr->origin[i][l] = o[i];
             pr->dir[i][l] = d[i];
@@ -63,7 +63,7 @@ static void UB_FN(tile_primary)(const ub_scene *sc, int sample, int tx0, int ty0
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             UB_FN(ub_packet_rays) pr;
-            UB_FN(camera_packet)(sc->camera, hb->x0 + x, hb->y0 + y, n, off, &pr);
+            UB_FN(camera_packet)(sc->camera, hb->x0 + hb->step * x, hb->y0 + hb->step * y, hb->step, n, off, &pr);
             UB_FN(ub_trace_result) tr;
             UB_FN(trace)(sc, dps, &pr, (1 << n) - 1, sc->shading->sea, 0, NULL, &tr, cnt);
             for (int l = 0; l < n; l++) {
@@ -91,7 +91,7 @@ static int UB_FN(buffer_point)(const ub_scene *sc, const double off[2], int bx, 
     if (h->object != object)
         return 0;
     double o[3], d[3], t0, t1;
-    UB_FN(pixel_ray)(sc->camera, hb->x0 + bx, hb->y0 + by, off, o, d, &t0, &t1);
+    UB_FN(pixel_ray)(sc->camera, hb->x0 + hb->step * bx, hb->y0 + hb->step * by, off, o, d, &t0, &t1);
     for (int i = 0; i < 3; i++)
         p[i] = o[i] + (double)h->t * d[i];
     *t = h->t;
@@ -204,7 +204,8 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
             if (o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0) {
                 double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, n[3];
                 double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-                if (UB_FN(zbuffer_normal)(sc, off, fx + l + sc->film->x0 - hb->x0, fy + sc->film->y0 - hb->y0, k,
+                if (UB_FN(zbuffer_normal)(sc, off, fx + l + (sc->film->x0 - hb->x0) / hb->step,
+                                          fy + (sc->film->y0 - hb->y0) / hb->step, k,
                                           p, tr->t[l], d, n)) {
                     for (int i = 0; i < 3; i++)
                         nw[i][l] = n[i];
@@ -434,6 +435,8 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                         || film->pass[UB_PASS_AO] != NULL);
     double off[2];
     ub_sample_offset(sample, &off[0], &off[1]);
+    /* Film pixel (x, y) is hit-buffer pixel (x + apron_x, y + apron_y): both on the same grid. */
+    const int apron_x = (film->x0 - hb->x0) / film->step, apron_y = (film->y0 - hb->y0) / film->step;
 
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
@@ -443,10 +446,10 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
             int lanes = (1 << n) - 1;
             UB_FN(ub_packet_rays) pr;
             UB_FN(ub_trace_result) tr;
-            UB_FN(camera_packet)(cam, film->x0 + x, film->y0 + y, n, off, &pr);
+            UB_FN(camera_packet)(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, off, &pr);
             for (int l = 0; l < UB_LANES; l++) {
                 int lx = x + (l < n ? l : n - 1);
-                const ub_hit *h = &hb->hits[(size_t)(film->y0 + y - hb->y0) * hb->w + (film->x0 + lx - hb->x0)];
+                const ub_hit *h = &hb->hits[(size_t)(y + apron_y) * hb->w + (lx + apron_x)];
                 tr.t[l] = h->t;
                 tr.iters[l] = h->iterations;
                 tr.dist[l] = h->distance;

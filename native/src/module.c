@@ -749,13 +749,14 @@ static const char *const isa_names[] = {"auto", "avx2", "portable", NULL};
 static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *kwlist[] = {"camera", "objects", "passes", "window", "threads", "tile_size", "simd",
-                             "progress", "cancel", "background", "poll_interval", "shading", NULL};
+                             "progress", "cancel", "background", "poll_interval", "shading", "stride",
+                             "sample_range", NULL};
     PyObject *camera_o, *objects_o, *passes_o, *window_o = Py_None, *progress = Py_None, *cancel = Py_None;
     PyObject *threads_o = NULL, *tile_o = NULL, *simd_o = NULL, *background_o = NULL, *poll_o = NULL;
-    PyObject *shading_o = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
+    PyObject *shading_o = NULL, *stride_o = NULL, *sample_range_o = Py_None;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
                                      &window_o, &threads_o, &tile_o, &simd_o, &progress, &cancel,
-                                     &background_o, &poll_o, &shading_o))
+                                     &background_o, &poll_o, &shading_o, &stride_o, &sample_range_o))
         return NULL;
 
     ub_camera cam;
@@ -776,10 +777,13 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
 
     if (parse_camera(camera_o, &cam) || parse_objects(objects_o, objs, &count) || parse_shading(shading_o, shading))
         goto done;
+    film.step = 1;
+    if (stride_o && get_int(stride_o, "stride", 1, 4096, &film.step))
+        goto done;
     film.x0 = 0;
     film.y0 = 0;
-    film.w = cam.width;
-    film.h = cam.height;
+    film.w = (cam.width + film.step - 1) / film.step;
+    film.h = (cam.height + film.step - 1) / film.step;
     if (window_o != Py_None) {
         double win[4];
         if (get_vector(window_o, "window", 4, win))
@@ -789,8 +793,9 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
                 PyErr_SetString(PyExc_ValueError, "window must be 4 integers (x, y, width, height)");
                 goto done;
             }
-        if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] + win[2] > cam.width
-            || win[1] + win[3] > cam.height) {
+        /* With a stride, width and height count the window's pixels on the stride's grid. */
+        if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] + film.step * (win[2] - 1) >= cam.width
+            || win[1] + film.step * (win[3] - 1) >= cam.height) {
             PyErr_Format(PyExc_ValueError,
                          "window (x, y, width, height) must lie inside the %dx%d image with a positive size",
                          cam.width, cam.height);
@@ -830,6 +835,20 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
             }
             film.background[i] = (float)bg[i];
         }
+    }
+    if (sample_range_o != Py_None) {
+        double range[2];
+        if (get_vector(sample_range_o, "sample_range", 2, range))
+            goto done;
+        if (range[0] != floor(range[0]) || range[1] != floor(range[1]) || range[0] < 0 || range[1] < 1
+            || range[0] + range[1] > shading->samples) {
+            PyErr_Format(PyExc_ValueError,
+                         "sample_range must be 2 integers (first, count) with 0 <= first, 1 <= count and "
+                         "first + count <= shading samples (%d)", shading->samples);
+            goto done;
+        }
+        opt.first_sample = (int)range[0];
+        opt.sample_count = (int)range[1];
     }
     if (progress != Py_None && !PyCallable_Check(progress)) {
         PyErr_SetString(PyExc_TypeError, "progress must be callable (fraction -> cancel?) or None");
@@ -1074,8 +1093,11 @@ static PyObject *py_cpu_info(PyObject *self, PyObject *noargs)
 static PyMethodDef methods[] = {
     {"render", (PyCFunction)(void (*)(void))py_render, METH_VARARGS | METH_KEYWORDS,
      "render(camera, objects, passes, *, window=None, threads=0, tile_size=32, simd='auto', progress=None, "
-     "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None) -> stats dict. After a cancel "
-     "(stats['cancelled']) the passes are partial: with several samples, undivided sums of the samples done"},
+     "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None, stride=1, sample_range=None) "
+     "-> stats dict. stride s renders the image pixels (x + s i, y + s j) of window (x, y, columns, rows) "
+     "only; sample_range (first, count) renders those samples into buffers holding the earlier ones' sum. "
+     "After a cancel (stats['cancelled']) the passes are partial: with several samples, undivided sums of "
+     "the samples done"},
     {"normals", (PyCFunction)(void (*)(void))py_normals, METH_VARARGS | METH_KEYWORDS,
      "normals(object, points, t, normals, *, simd='auto'): object-space unit normals at object-space points "
      "by the object's normal_method (zbuffer: the distance gradient), gradient step alpha * t**delta"},

@@ -188,14 +188,16 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         return isa_error;
     const ub_film *film = scene_in->film;
     const ub_camera *cam = scene_in->camera;
-    /* The hit buffer: the window plus a one-pixel apron inside the image. */
+    /* The hit buffer: the film plus a one-pixel apron inside the image, on the film's grid. */
     ub_hit_buffer hb;
-    hb.x0 = film->x0 > 0 ? film->x0 - 1 : 0;
-    hb.y0 = film->y0 > 0 ? film->y0 - 1 : 0;
-    int x1 = film->x0 + film->w < cam->width ? film->x0 + film->w + 1 : cam->width;
-    int y1 = film->y0 + film->h < cam->height ? film->y0 + film->h + 1 : cam->height;
-    hb.w = x1 - hb.x0;
-    hb.h = y1 - hb.y0;
+    const int step = film->step;
+    int left = film->x0 >= step, bottom = film->y0 >= step;
+    int right = film->x0 + step * film->w < cam->width, top = film->y0 + step * film->h < cam->height;
+    hb.step = step;
+    hb.x0 = film->x0 - left * step;
+    hb.y0 = film->y0 - bottom * step;
+    hb.w = film->w + left + right;
+    hb.h = film->h + bottom + top;
     hb.hits = malloc((size_t)hb.w * (size_t)hb.h * sizeof(ub_hit));
     ub_scene scene = *scene_in;
     scene.hits = &hb;
@@ -210,7 +212,9 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     }
     double t0 = now_seconds();
     int samples = scene.shading->samples, ran = 1;
-    for (int s = 0; s < samples && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); s++) {
+    int first = opt->sample_count > 0 ? opt->first_sample : 0;
+    int count = opt->sample_count > 0 ? opt->sample_count : samples;
+    for (int s = first; s < first + count && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); s++) {
         for (int phase = 0; phase < 2 && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); phase++) {
             ub_job job;
             memset(&job, 0, sizeof job);
@@ -222,7 +226,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
             job.height = phase == 0 ? hb.h : film->h;
             job.tile = opt->tile_size;
             job.per_thread = per_thread;
-            int r = run_job(&job, opt, threads, workers, 2 * s + phase, 2 * samples);
+            int r = run_job(&job, opt, threads, workers, 2 * (s - first) + phase, 2 * count);
             if (r > ran)
                 ran = r;
         }

@@ -13,6 +13,10 @@ typedef struct {
     int (*poll)(void *data, double fraction);
     void *poll_data;
     long poll_interval_ns;
+    /* Render samples first_sample .. first_sample + sample_count - 1 of the shading's `samples`
+     * into buffers that hold the earlier ones (their undivided sum): the viewport accumulates a
+     * sample at a time, and the last one divides as a whole render does. sample_count 0: all. */
+    int first_sample, sample_count;
 } ub_render_options;
 
 typedef struct {

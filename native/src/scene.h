@@ -202,9 +202,11 @@ extern const char *const ub_pass_names[UB_PASS_COUNT];
 extern const int ub_pass_channels[UB_PASS_COUNT];
 
 typedef struct {
-    /* Window of the full image covered by the buffers: pixels [x0, x0+w) x [y0, y0+h).
-     * Buffer row 0 is the window's bottom row (Blender's render-result order). */
-    int x0, y0, w, h;
+    /* Pixels of the full image covered by the buffers: buffer pixel (i, j) is image pixel
+     * (x0 + step i, y0 + step j), 0 <= i < w, 0 <= j < h. step 1 is a window of the image;
+     * larger steps are the interleaved sub-grids of the viewport's progressive refinement.
+     * Buffer row 0 is the bottom row (Blender's render-result order). */
+    int x0, y0, w, h, step;
     float *pass[UB_PASS_COUNT]; /* NULL: pass not wanted */
     float background[4];
 } ub_film;
@@ -224,9 +226,10 @@ typedef struct {
 } ub_hit;
 
 typedef struct {
-    /* Pixels [x0, x0+w) x [y0, y0+h) of the full image: the film's window plus a one-pixel
-     * apron (clipped to the image), so normals at a window's edge equal the full render's. */
-    int x0, y0, w, h;
+    /* The film's pixels plus a one-pixel apron (clipped to the image), on the film's grid:
+     * buffer pixel (i, j) is image pixel (x0 + step i, y0 + step j). With step 1, normals at a
+     * window's edge equal the full render's. */
+    int x0, y0, w, h, step;
     ub_hit *hits;
 } ub_hit_buffer;
 
