@@ -1,14 +1,14 @@
 """Unbound: ray-marched 3-D deterministic fractals (quaternion Julia sets first) as a Blender
 render engine, after Hart, Sandin & Kauffman, "Ray tracing deterministic 3-D fractals" (1989)."""
-# Import order keeps reloading safe: utils -> passes -> properties -> engine -> operators -> ui.
+# Import order keeps reloading safe: utils -> passes -> properties -> engine -> viewport -> operators -> ui.
 if "bpy" in locals():
     import importlib
-    for _mod in (utils, passes, properties, engine, operators, ui):  # noqa: F821
+    for _mod in (utils, passes, properties, engine, viewport, operators, ui):  # noqa: F821
         importlib.reload(_mod)
 
 import bpy
 
-from . import utils, passes, properties, engine, operators, ui  # noqa: E402
+from . import utils, passes, properties, engine, viewport, operators, ui  # noqa: E402
 
 
 class UnboundRenderEngine(bpy.types.RenderEngine):
@@ -23,6 +23,16 @@ class UnboundRenderEngine(bpy.types.RenderEngine):
 
     def update_render_passes(self, scene=None, renderlayer=None):
         engine.update_render_passes(self, scene, renderlayer)
+
+    # The Rendered viewport
+    def view_update(self, context, depsgraph):
+        viewport.view_update(self, context, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        viewport.view_draw(self, context, depsgraph)
+
+    def __del__(self):
+        viewport.free(self)
 
 
 def register():

@@ -35,19 +35,34 @@ def camera_description(engine, depsgraph, width, height):
     cam_ob = cam_ob.evaluated_get(depsgraph)
     if cam_ob.type != 'CAMERA':
         raise RenderError("The scene camera '%s' is not a camera object" % cam_ob.name)
+    return camera_dict(depsgraph, cam_ob, engine.camera_model_matrix(cam_ob, use_spherical_stereo=False),
+                       width, height)
+
+
+def check_camera_type(cam_ob):
     if cam_ob.data.type not in {'PERSP', 'ORTHO'}:
         raise RenderError("the camera '%s' is %s; only perspective and orthographic cameras are supported"
                           % (cam_ob.name, {'PANO': "panoramic"}.get(cam_ob.data.type, cam_ob.data.type.lower())))
-    r = scene.render
+
+
+def camera_dict(depsgraph, cam_ob, matrix, width, height):
+    """The native camera dict of camera object `cam_ob` (evaluated) placed at `matrix`, for an
+    image of width x height pixels."""
+    check_camera_type(cam_ob)
+    r = depsgraph.scene.render
     projection = cam_ob.calc_matrix_camera(depsgraph, x=width, y=height, scale_x=r.pixel_aspect_x,
                                            scale_y=r.pixel_aspect_y)
-    matrix = engine.camera_model_matrix(cam_ob, use_spherical_stereo=False)
+    return native_camera(matrix, projection, cam_ob.data.type == 'PERSP', cam_ob.data.clip_start,
+                         cam_ob.data.clip_end, width, height)
+
+
+def native_camera(matrix, projection, perspective, near, far, width, height):
+    """The native camera dict of a camera-to-world matrix and Blender's projection matrix."""
     projection = [list(row) for row in projection]
     # The depth row again in double precision, from the clip distances it was made of (Blender's
     # perspective_m4 / orthographic_m4): in the float32 matrix a clip start of 1e-6 with a clip end
     # of 100 rounds -(f + n) / (f - n) to -1, which puts the clip end at infinity.
-    near, far = cam_ob.data.clip_start, cam_ob.data.clip_end
-    if cam_ob.data.type == 'PERSP':
+    if perspective:
         projection[2][2:] = [-(far + near) / (far - near), -2.0 * near * far / (far - near)]
     else:
         projection[2][2:] = [-2.0 / (far - near), -(far + near) / (far - near)]
@@ -69,17 +84,20 @@ def scene_instances(depsgraph, accept, describe):
     return [desc for _, desc in found]
 
 
-def fractal_instances(depsgraph):
+def fractal_instances(depsgraph, original=False):
     """(native dict, world bounding radius) of every visible fractal object (instances included),
     in a stable order. The parameters (colour ramp included) are derived and checked by the core
-    once per object, the matrix per instance."""
+    once per object, the matrix per instance. original: read the parameters from the original
+    objects, not the evaluated copies, which a script's change does not reach without a depsgraph
+    tag (the viewport's depsgraph is the active one, where keyframes and drivers write the
+    originals too)."""
     checked = {}
 
     def describe(ob, matrix):
         key = ob.name_full  # a linked object may share its name with a local one
         if key not in checked:
             try:
-                params = properties.native_parameters(ob.unbound, depsgraph)
+                params = properties.native_parameters((ob.original if original else ob).unbound, depsgraph)
                 # The core checks every value (NaN from a keyframe, a slice that misses the set):
                 # ask it here, per object, so that the message names the object, not its index.
                 checked[key] = params, utils.native().describe(params)["bound_radius"]
@@ -94,9 +112,9 @@ def fractal_instances(depsgraph):
     return scene_instances(depsgraph, utils.is_fractal, describe)
 
 
-def fractal_objects(depsgraph):
+def fractal_objects(depsgraph, original=False):
     """Native dicts for every visible fractal object (instances included), in a stable order."""
-    return [params for params, _ in fractal_instances(depsgraph)]
+    return [params for params, _ in fractal_instances(depsgraph, original)]
 
 
 def image_window(scene):

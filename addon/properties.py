@@ -63,6 +63,11 @@ SHADOW_MODES = [
     ('SOFT', "Soft", "Penumbra from each light's size (radius, sun angle, area size), estimated from how "
      "nearly the shadow ray missed", 2),
 ]
+# The viewport's first refinement renders every d-th pixel of every d-th row (the item's index
+# is d, so renaming an item keeps old files' values).
+VIEWPORT_DIVISORS = [('1', "Full", "Start at full resolution", 1)] + [
+    (str(d), "1/%d" % d, "Start with every %dth pixel of every %dth row, then halve the spacing" % (d, d), d)
+    for d in (2, 4, 8, 16, 32, 64)]
 SIMD_MODES = [
     ('AUTO', "Automatic", "AVX2 and FMA where the CPU has them, portable code otherwise", 0),
     ('AVX2', "AVX2", "Force the AVX2 and FMA kernel", 1),
@@ -280,6 +285,16 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
                                     "(needs Reflections above 0)", default=0.5, min=0.0, max=1.0, subtype='FACTOR')
     simd: EnumProperty(name="SIMD", description="Vector instruction set of the marching kernel",
                        items=SIMD_MODES, default='AUTO')
+    # The Rendered viewport (progressive refinement, section 7.1 of the paper)
+    viewport_start_divisor: EnumProperty(name="Start Resolution", description="Resolution of the viewport's "
+                                         "first image after a change; each refinement doubles it up to full",
+                                         items=VIEWPORT_DIVISORS, default='8')
+    viewport_samples: IntProperty(name="Viewport Samples", description="Anti-aliasing samples per pixel in "
+                                  "the viewport, added one at a time after full resolution", default=1, min=1,
+                                  max=4096, soft_max=64)
+    viewport_time_limit: FloatProperty(name="Time Limit", description="Stop refining the viewport after this "
+                                       "many seconds (0: no limit)", default=0.0, min=0.0, max=86400.0,
+                                       soft_max=60.0, unit='TIME_ABSOLUTE')
 
 
 def native_parameters(props, depsgraph=None, with_ramp=True):

@@ -175,6 +175,19 @@ class RenderSubPanel(UnboundPanel):
     bl_parent_id = "UNBOUND_PT_render"
 
 
+class UNBOUND_PT_render_viewport(RenderSubPanel, bpy.types.Panel):
+    bl_label = "Viewport"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        s = context.scene.unbound
+        layout.prop(s, "viewport_start_divisor")
+        layout.prop(s, "viewport_samples", text="Samples")
+        layout.prop(s, "viewport_time_limit")
+
+
 class UNBOUND_PT_render_lighting(RenderSubPanel, bpy.types.Panel):
     bl_label = "Lighting"
 
@@ -290,7 +303,7 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
 
 
 classes = (UNBOUND_UL_ifs_maps, UNBOUND_PT_fractal, UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
-           UNBOUND_PT_render, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects, UNBOUND_PT_render_sea,
+           UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects, UNBOUND_PT_render_sea,
            UNBOUND_PT_light, UNBOUND_PT_passes)
 
 # Blender's own panels that make sense for Unbound (output format, camera, world, object
