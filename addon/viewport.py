@@ -148,6 +148,7 @@ class Session:
         self._started = 0         # generation the worker last took up
         self._finished = 0        # generation whose refinement ended (complete, capped or failed)
         self._submitted = {}      # generation -> perf_counter() of update()
+        self._updated = time.perf_counter()
         self._cancel = threading.Event()
         self._frame = None
         self._sequence = 0
@@ -156,6 +157,9 @@ class Session:
         # (generation, seconds from the newer update() to the stale step's return) of every
         # cancelled step: for tests and the benchmark.
         self.log = collections.deque(maxlen=4096)
+        # (sequence, seconds since update(), seconds of texture upload) of the last frame drawn
+        # on screen by view_draw.
+        self.drawn = None
         self.cancellations = collections.deque(maxlen=4096)
         self._thread = threading.Thread(target=self._run, name="Unbound viewport", daemon=True)
         self._thread.start()
@@ -168,7 +172,7 @@ class Session:
                 return False
             self._request = req
             self._generation += 1
-            self._submitted[self._generation] = time.perf_counter()
+            self._updated = self._submitted[self._generation] = time.perf_counter()
             self._cancel.set()
             self._cond.notify_all()
             return True
@@ -176,6 +180,11 @@ class Session:
     def frame(self):
         with self._cond:
             return self._frame
+
+    def since_update(self):
+        """Seconds since the latest update() that restarted the refinement."""
+        with self._cond:
+            return time.perf_counter() - self._updated
 
     def wait(self, timeout=60.0):
         """Blocks until the latest request's refinement has ended; its last Frame (or None)."""
@@ -343,7 +352,9 @@ def view_draw(engine, context, depsgraph):
         draw_message(context, "Unbound: " + frame.error)
         return
     if frame.pixels is not None:
-        draw_frame(engine, depsgraph.scene, frame)
+        upload = draw_frame(engine, depsgraph.scene, frame)
+        if s.drawn is None or s.drawn[0] != frame.sequence:
+            s.drawn = (frame.sequence, s.since_update(), upload)
     if frame.final:
         status = "Done | %.2f s" % frame.elapsed
     elif frame.divisor > 1:
@@ -369,11 +380,14 @@ def draw_frame(engine, scene, frame):
     import gpu
     from gpu_extras.batch import batch_for_shader
     cached = engine.__dict__.get("_unbound_texture")
+    upload = 0.0
     if cached is None or cached[0] != frame.sequence:
+        started = time.perf_counter()
         rows, cols = frame.pixels.shape[:2]
         data = gpu.types.Buffer('FLOAT', rows * cols * 4, frame.pixels.ravel())
         cached = engine._unbound_texture = (frame.sequence, gpu.types.GPUTexture((cols, rows), format='RGBA16F',
                                                                                   data=data))
+        upload = time.perf_counter() - started
     texture = cached[1]
     x, y, w, h = frame.window
     rows, cols = frame.pixels.shape[:2]
@@ -388,6 +402,7 @@ def draw_frame(engine, scene, frame):
     batch.draw(shader)
     engine.unbind_display_space_shader()
     gpu.state.blend_set('NONE')
+    return upload
 
 
 def draw_message(context, text):

@@ -2,7 +2,8 @@
 (Python 3.13) in the chroot of tools/blender_gui.sh. Validates and installs the built zip with
 `blender --command extension`, renders a still in the background, and opens the GUI under Xvfb to
 screenshot the Object, Render and View Layer tabs of the Properties editor with Unbound's panels
-(saved in build/screenshots/real_blender/ for people to look at)."""
+and the 3D viewport in Rendered shading (saved in build/screenshots/real_blender/ for people to
+look at)."""
 import json
 import os
 import pathlib
@@ -122,8 +123,9 @@ def test_gui_panels_screenshots(user_dir):
               # An IFS has no slice; its panel draws the list of maps (a UIList).
               "object_tab_ifs.png": ("OBJECT", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_quality",
                                                 "UNBOUND_PT_fractal_shading"}),
-              "render_tab.png": ("RENDER", {"UNBOUND_PT_render", "UNBOUND_PT_render_lighting",
-                                            "UNBOUND_PT_render_effects"}),  # Sea starts closed
+              "render_tab.png": ("RENDER", {"UNBOUND_PT_render", "UNBOUND_PT_render_viewport",
+                                            "UNBOUND_PT_render_lighting", "UNBOUND_PT_render_effects"}),
+              # (Sea starts closed)
               "view_layer_tab.png": ("VIEW_LAYER", {"UNBOUND_PT_passes"})}
     for name, (tab, panels) in expect.items():
         e = shots[name]
@@ -135,6 +137,64 @@ def test_gui_panels_screenshots(user_dir):
         # The Properties editor (bottom right in the Layout workspace) is not blank either.
         props = px[h * 3 // 10:, w * 5 // 6:, :3]
         assert props.std() > 10 and len(np.unique(props.reshape(-1, 3), axis=0)) > 20, name
+
+
+def test_gui_rendered_viewport(user_dir):
+    """The 3D viewport in Rendered shading (gui_viewport.py): the fractal is drawn, refined from
+    1/8 resolution to full, in the user's perspective view, after a change of mu, in the camera
+    view inside a render border, and in an orthographic view. Each time the viewport's request is
+    the one built from the region's view and its final frame equals a direct render of it, bit
+    for bit. The screenshot without overlays equals the frame passed through Blender's own colour
+    management (AgX), so the viewport draws with Blender's display transform."""
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    names = ["viewport_rendered.png", "viewport_no_overlays.png", "viewport_camera_border.png", "viewport_ortho.png",
+             "viewport_reference.png"]
+    for name in names:
+        (SHOTS / name).unlink(missing_ok=True)
+    w, h = SCREEN
+    rc, out = tool("gui", "env", "BLENDER_USER_RESOURCES=" + chroot_path(user_dir), "blender",
+                   "-p", "0", "0", str(w), str(h), "-setaudio", "None",
+                   "--python", SCRIPTS + "/gui_viewport.py", "--", chroot_path(SHOTS),
+                   env={"XVFB_SCREEN": "%dx%dx24" % SCREEN, "BL_TIMEOUT": "240"}, timeout=270)
+    assert rc == 0, out[-4000:]
+    log = results(out, "UNBOUND_GUI")
+    assert not [e for e in log if "error" in e and e["error"] is not None], out[-4000:]
+    assert "Traceback" not in out, out[-4000:]
+    setup = next(e for e in log if e.get("step") == "setup")
+    assert setup["add_op"] == ["FINISHED"] and setup["engine"] == "UNBOUND" and setup["is_fractal"], setup
+    assert setup["shading"] == "RENDERED" and setup["view_transform"] == "AgX", setup
+    steps = {e["step"]: e for e in log if "identical" in e}
+    assert sorted(steps) == ["camera_border", "changed_mu", "no_overlays", "ortho", "rendered"], log
+    for name, e in steps.items():
+        assert e["same_request"] and e["final"] and e["identical"], e
+        assert e["levels"] == [[8, 1], [4, 1], [2, 1], [1, 1]], e
+    assert steps["changed_mu"]["generation"] > steps["rendered"]["generation"], steps
+    # The Object tab showed the fractal's parameters while the viewport rendered.
+    assert {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice"} <= set(steps["rendered"]["panels"]), steps
+    # The camera view renders the render border inside the camera's frame only.
+    frame = next(e for e in log if e.get("step") == "camera_frame")["rect"]
+    bx, by, bw, bh = steps["camera_border"]["window"]
+    fw, fh = frame[2] - frame[0], frame[3] - frame[1]
+    assert abs(bx - (frame[0] + 0.2 * fw)) <= 1 and abs(bx + bw - (frame[0] + 0.7 * fw)) <= 1, (frame, bx, bw)
+    assert abs(by - (frame[1] + 0.25 * fh)) <= 1 and abs(by + bh - (frame[1] + 0.8 * fh)) <= 1, (frame, by, bh)
+    rx, ry, rw, rh = steps["rendered"]["region"]
+    assert steps["rendered"]["window"] == [0, 0, rw, rh], steps["rendered"]
+    shots = {e["shot"]: e for e in log if "shot" in e}
+    assert all(shots[n]["rc"] == 0 for n in names[:4]), shots
+    # Screen (top-down rows) against Blender's colour management of the same frame: 8-bit values
+    # equal but for a few pixels at the region's corners (Blender's hidden-region arrows).
+    shot = read_png(SHOTS / "viewport_no_overlays.png").astype(int)
+    ref = read_png(SHOTS / "viewport_reference.png").astype(int)
+    assert ref.shape[:2] == (rh, rw), ref.shape
+    crop = shot[h - (ry + rh):h - ry, rx:rx + rw, :3]
+    diff = np.abs(crop - ref[..., :3])[24:-24, 24:-24]
+    assert ref[..., :3].std() > 10, "the reference frame is flat"
+    assert diff.mean() < 0.5 and (diff.max(-1) > 3).mean() < 0.002, (diff.mean(), (diff.max(-1) > 3).mean())
+    # The fractal itself is on screen: the pixels where the frame differs from the world colour.
+    world = np.median(ref[..., :3].reshape(-1, 3), axis=0)
+    fractal = np.abs(ref[..., :3] - world).max(-1) > 10
+    assert 0.02 < fractal.mean() < 0.9, fractal.mean()
+    assert np.abs(crop[fractal] - world).max(-1).mean() > 20
 
 
 def test_ctrl_c_cancels_a_1080p_render_within_100ms(user_dir):
