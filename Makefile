@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 WHEEL_GLOB := dist/unbound_core-*-cp311-abi3-*.whl
 NATIVE_SOURCES := $(wildcard native/src/*.c native/src/*.h native/unbound_core/*.py) native/setup.py native/pyproject.toml
 
-.PHONY: venv wheel extension test test-native bench demo gallery sanitize fuzz fuzz-ci clean
+.PHONY: venv wheel extension test test-native bench bench-viewport demo gallery sanitize fuzz fuzz-ci clean
 
 venv: $(VENV)/.stamp
 $(VENV)/.stamp: requirements-dev.txt
@@ -40,6 +40,10 @@ test-native: wheel
 
 bench: wheel
 	$(PY) bench/bench_core.py
+
+# The Rendered viewport: time from a parameter change to the first image and to full refinement.
+bench-viewport: extension
+	$(PY) bench/bench_viewport.py
 
 # The main job: a keyframed mu animation rendered through Blender's pipeline (bpy 4.2) with the
 # built extension installed by Blender's installer into a private user directory.

@@ -248,8 +248,12 @@ def fuzz_render(g):
         window = (x, y, g.count(1, 16, extreme=(0, -1, 2 ** 31)), g.count(1, 16, extreme=(0, -1, 2 ** 31)))
         if g.chance(30):
             window = g.vector(4, -2, 30)
+    # The viewport's interleaved sub-grids: every stride-th pixel of every stride-th row.
+    stride = g.count(1, 9, extreme=(0, -1, 4096, 4097)) if g.chance(3) else None
     if window is not None and len(window) == 4 and all(type(v) is int for v in window):
         fw, fh = window[2], window[3]
+    elif type(stride) is int and stride > 0 and type(width) is int and type(height) is int:
+        fw, fh = -(-width // stride), -(-height // stride)
     else:
         fw, fh = width, height
     if not (type(fw) is int and type(fh) is int and 0 < fw <= 64 and 0 < fh <= 64):
@@ -268,6 +272,12 @@ def fuzz_render(g):
         kw["shading"] = random_shading(g)
     if g.chance(4):
         kw["poll_interval"] = g.real(1e-4, 0.01)
+    if stride is not None:
+        kw["stride"] = stride
+    if g.chance(4):  # samples a range at a time into running sums
+        kw["sample_range"] = (g.count(0, 4, extreme=(-1, 2 ** 31)), g.count(1, 4, extreme=(0, -1, 2 ** 31)))
+        if g.chance(20):
+            kw["sample_range"] = g.vector(g.length(0, 3, (2,)), -2, 5)
     # Cancellation: by the callback's return value, an exception in it, or an Event set from a
     # thread; and always by the time budget.
     cancel_mode = g.pick(["none", "return", "raise", "event"])
