@@ -58,6 +58,8 @@ def camera_dict(depsgraph, cam_ob, matrix, width, height):
 
 def native_camera(matrix, projection, perspective, near, far, width, height):
     """The native camera dict of a camera-to-world matrix and Blender's projection matrix."""
+    if not far > near:
+        raise RenderError("The clip start (%g) must be less than the clip end (%g)" % (near, far))
     projection = [list(row) for row in projection]
     # The depth row again in double precision, from the clip distances it was made of (Blender's
     # perspective_m4 / orthographic_m4): in the float32 matrix a clip start of 1e-6 with a clip end

@@ -143,7 +143,7 @@ class Session:
     def __init__(self, redraw=None):
         self._redraw = redraw
         self._cond = threading.Condition()
-        self._request = None
+        self._request = self._request_key = None
         self._generation = 0      # of the latest request
         self._started = 0         # generation the worker last took up
         self._finished = 0        # generation whose refinement ended (complete, capped or failed)
@@ -166,11 +166,15 @@ class Session:
 
     # Main thread ---------------------------------------------------------------------------
     def update(self, req):
-        """Render `req` from now on; True if it differs from the current request (a restart)."""
+        """Render `req` from now on; True if it differs from the current request (a restart).
+        Requests are compared by their repr: floats print exactly, and a NaN that reached a
+        request (the core then refuses it) equals itself, so its error frame's redraw does not
+        restart the work forever."""
+        key = repr(req)
         with self._cond:
-            if req == self._request:
+            if key == self._request_key:
                 return False
-            self._request = req
+            self._request, self._request_key = req, key
             self._generation += 1
             self._updated = self._submitted[self._generation] = time.perf_counter()
             self._cancel.set()
@@ -343,7 +347,11 @@ def view_draw(engine, context, depsgraph):
     refinement. The scene is read on every draw (about 50 microseconds per fractal): a script
     that sets a property without tagging the depsgraph calls no view_update, only a redraw."""
     s = session(engine)
-    s.update(request(scene_part(depsgraph), view_part(context, depsgraph)))
+    try:
+        view = view_part(context, depsgraph)
+    except (ValueError, TypeError) as exc:  # e.g. a view matrix without an inverse
+        view = dict(camera=None, window=None, error=str(exc))
+    s.update(request(scene_part(depsgraph), view))
     frame = s.frame()
     if frame is None:
         return

@@ -175,8 +175,9 @@ def test_any_change_restarts_and_stale_work_is_cancelled_at_once(run_bpy):
 
 def test_time_cap_and_errors(run_bpy):
     """The time cap ends refinement early (the frame reached is final); a NaN parameter shows
-    as an error frame naming the object, and fixing it renders again; stop() mid-render returns
-    promptly and ends the worker."""
+    as an error frame naming the object, and fixing it renders again; a NaN setting is one error,
+    not endless restarts; equal clip distances are a message; stop() mid-render returns promptly
+    and ends the worker."""
     r = run_bpy(with_prelude("""
         scene = S.empty_scene(480, 270)
         S.add_camera(scene)
@@ -196,6 +197,17 @@ def test_time_cap_and_errors(run_bpy):
         scene.unbound.viewport_samples = 1
         session.update(current_request(scene))
         ok = session.wait(60)
+        # A NaN that reaches the request (a scene setting, which the core refuses) gives one
+        # error frame; the redraw it asks for builds the same request, which restarts nothing.
+        scene.unbound.fog_density = float("nan")
+        session.update(current_request(scene))
+        nan_frame = session.wait(60)
+        nan_again = session.update(current_request(scene))
+        scene.unbound.fog_density = 0.0
+        # Equal clip distances: a message, in the viewport and for F12 alike.
+        scene.camera.data.clip_start = scene.camera.data.clip_end = 5.0
+        clip_outcome = S.attempt(scene)
+        scene.camera.data.clip_start, scene.camera.data.clip_end = 0.1, 100.0
         # stop() in the middle of a long refinement
         scene.unbound.viewport_samples = 64
         session.update(current_request(scene))
@@ -203,7 +215,8 @@ def test_time_cap_and_errors(run_bpy):
         t = time.perf_counter()
         session.stop()
         stop_s = time.perf_counter() - t
-        S.report(capped=[capped.final, capped.samples_done, capped_s], error=error.error,
+        S.report(nan=[nan_frame.error, nan_again], clip=list(clip_outcome),
+                 capped=[capped.final, capped.samples_done, capped_s], error=error.error,
                  error_final=error.final, ok=[ok.final, ok.error, ok.divisor], stop_s=stop_s,
                  alive=session._thread.is_alive())
     """))
@@ -212,6 +225,8 @@ def test_time_cap_and_errors(run_bpy):
     assert r["error"] == "fractal 'Quaternion Julia': theta must be finite (check its keyframes and drivers)", r
     assert r["error_final"], r
     assert r["ok"] == [True, None, 1], r
+    assert "fog_density" in r["nan"][0] and r["nan"][1] is False, r
+    assert r["clip"] == ["Error: Unbound: The clip start (5) must be less than the clip end (5)", False], r
     assert r["stop_s"] < 0.2 and not r["alive"], r
 
 
