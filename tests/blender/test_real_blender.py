@@ -97,20 +97,29 @@ def test_background_render(user_dir):
     shutil.copy(still, SHOTS / "background_render.png")
 
 
-def test_gui_panels_screenshots(user_dir):
+def run_gui(user_dir, script, names, timeout):
+    """Blender's GUI (SCREEN, under Xvfb) running SCRIPT with the extension installed; the old
+    screenshots `names` removed first. Returns the script's UNBOUND_GUI log after checking that
+    Blender exited cleanly without a traceback."""
     SHOTS.mkdir(parents=True, exist_ok=True)
-    names = ["object_tab.png", "object_tab_ifs.png", "render_tab.png", "view_layer_tab.png"]
     for name in names:
         (SHOTS / name).unlink(missing_ok=True)
     w, h = SCREEN
     rc, out = tool("gui", "env", "BLENDER_USER_RESOURCES=" + chroot_path(user_dir), "blender",
                    "-p", "0", "0", str(w), str(h), "-setaudio", "None",
-                   "--python", SCRIPTS + "/gui_panels.py", "--", chroot_path(SHOTS),
-                   env={"XVFB_SCREEN": "%dx%dx24" % SCREEN, "BL_TIMEOUT": "150"}, timeout=180)
+                   "--python", SCRIPTS + "/" + script, "--", chroot_path(SHOTS),
+                   env={"XVFB_SCREEN": "%dx%dx24" % SCREEN, "BL_TIMEOUT": str(timeout - 30)}, timeout=timeout)
     assert rc == 0, out[-4000:]
+    assert "Traceback" not in out, out[-4000:]  # a panel's draw() or a step that fails prints one
     log = results(out, "UNBOUND_GUI")
-    assert not [e for e in log if "error" in e], out[-4000:]
-    assert "Traceback" not in out, out[-4000:]  # a panel's draw() that fails prints one
+    assert not [e for e in log if e.get("error") is not None], out[-4000:]
+    return log
+
+
+def test_gui_panels_screenshots(user_dir):
+    names = ["object_tab.png", "object_tab_ifs.png", "render_tab.png", "view_layer_tab.png"]
+    log = run_gui(user_dir, "gui_panels.py", names, timeout=180)
+    w, h = SCREEN
     ifs = next(e for e in log if e.get("step") == "ifs")
     assert ifs["op"] == ["FINISHED"] and ifs["maps"] == 20, ifs
     setup = next(e for e in log if e.get("step") == "setup")
@@ -146,20 +155,10 @@ def test_gui_rendered_viewport(user_dir):
     the one built from the region's view and its final frame equals a direct render of it, bit
     for bit. The screenshot without overlays equals the frame passed through Blender's own colour
     management (AgX), so the viewport draws with Blender's display transform."""
-    SHOTS.mkdir(parents=True, exist_ok=True)
     names = ["viewport_rendered.png", "viewport_no_overlays.png", "viewport_camera_border.png", "viewport_ortho.png",
              "viewport_reference.png"]
-    for name in names:
-        (SHOTS / name).unlink(missing_ok=True)
+    log = run_gui(user_dir, "gui_viewport.py", names, timeout=270)
     w, h = SCREEN
-    rc, out = tool("gui", "env", "BLENDER_USER_RESOURCES=" + chroot_path(user_dir), "blender",
-                   "-p", "0", "0", str(w), str(h), "-setaudio", "None",
-                   "--python", SCRIPTS + "/gui_viewport.py", "--", chroot_path(SHOTS),
-                   env={"XVFB_SCREEN": "%dx%dx24" % SCREEN, "BL_TIMEOUT": "240"}, timeout=270)
-    assert rc == 0, out[-4000:]
-    log = results(out, "UNBOUND_GUI")
-    assert not [e for e in log if "error" in e and e["error"] is not None], out[-4000:]
-    assert "Traceback" not in out, out[-4000:]
     setup = next(e for e in log if e.get("step") == "setup")
     assert setup["add_op"] == ["FINISHED"] and setup["engine"] == "UNBOUND" and setup["is_fractal"], setup
     assert setup["shading"] == "RENDERED" and setup["view_transform"] == "AgX", setup

@@ -5,27 +5,15 @@ From timers: adds a fractal with the add-on's operator, selects it, sets the eng
 shows the Properties editor on the Object, Render and View Layer tabs in turn and grabs the X
 screen with ffmpeg after each (bpy.ops.screen.screenshot is black on Mesa's software GL), then
 quits. Prints `UNBOUND_GUI {json}` lines."""
-import json
 import os
-import subprocess
 import sys
-import time
 
 import bpy
 
-OUT = sys.argv[sys.argv.index("--") + 1]
-MODULE = "bl_ext.user_default.unbound"
-T0 = time.time()
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gui_common import MODULE, area, grab, log, region, window  # noqa: E402
+
 STEP_S = 1.0      # between a change and its screenshot: a few redraws of the whole window
-bpy.context.preferences.view.show_splash = False   # --python runs before the splash opens
-bpy.context.preferences.use_preferences_save = False  # no auto-save of the test's prefs at quit
-
-
-def log(**values):
-    values["t"] = round(time.time() - T0, 2)
-    print("UNBOUND_GUI " + json.dumps(values), flush=True)
-
-
 DRAWN = set()   # the add-on's panels whose draw() ran since the last tab change
 
 
@@ -38,24 +26,9 @@ def watch_panels():
         cls.append(lambda self, context, _name=cls.__name__: DRAWN.add(_name))
 
 
-def window():
-    return bpy.context.window_manager.windows[0]
-
-
-def area(kind):
-    return max((a for a in window().screen.areas if a.type == kind), key=lambda a: a.width * a.height)
-
-
-def region(a, kind='WINDOW'):
-    return next(r for r in a.regions if r.type == kind)
-
-
-def grab(name):
-    path = os.path.join(OUT, name)
-    cp = subprocess.run(["ffmpeg", "-loglevel", "error", "-y", "-f", "x11grab", "-draw_mouse", "0",
-                         "-i", os.environ["DISPLAY"], "-frames:v", "1", path], capture_output=True, text=True)
-    log(shot=name, rc=cp.returncode, err=cp.stderr.strip()[-300:], tab=area('PROPERTIES').spaces.active.context,
-        panels=sorted(DRAWN))
+def shot(name):
+    rc, err = grab(name)
+    log(shot=name, rc=rc, err=err, tab=area('PROPERTIES').spaces.active.context, panels=sorted(DRAWN))
 
 
 def show_tab(tab):
@@ -113,10 +86,10 @@ def quit_blender():
         bpy.ops.wm.quit_blender()
 
 
-STEPS = [setup, scroll_to_end, lambda: grab("object_tab.png"),
-         make_ifs, scroll_to_end, lambda: grab("object_tab_ifs.png"),
-         lambda: show_tab('RENDER'), scroll_to_end, lambda: grab("render_tab.png"),
-         lambda: show_tab('VIEW_LAYER'), scroll_to_end, lambda: grab("view_layer_tab.png"), quit_blender]
+STEPS = [setup, scroll_to_end, lambda: shot("object_tab.png"),
+         make_ifs, scroll_to_end, lambda: shot("object_tab_ifs.png"),
+         lambda: show_tab('RENDER'), scroll_to_end, lambda: shot("render_tab.png"),
+         lambda: show_tab('VIEW_LAYER'), scroll_to_end, lambda: shot("view_layer_tab.png"), quit_blender]
 
 
 def run_steps():

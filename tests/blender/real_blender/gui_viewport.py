@@ -8,49 +8,21 @@ through Blender's own colour management), a changed mu, the camera view with a r
 and an orthographic view. For each it checks that the viewport's request is the one built from
 the region's view, and that the final frame equals a direct render of that request, bit for bit.
 Prints `UNBOUND_GUI {json}` lines; screenshots are grabbed from the X screen with ffmpeg."""
-import json
 import os
-import subprocess
 import sys
 import time
 
 import bpy
 import numpy as np
 
-OUT = sys.argv[sys.argv.index("--") + 1]
-MODULE = "bl_ext.user_default.unbound"
-T0 = time.time()
-bpy.context.preferences.view.show_splash = False
-bpy.context.preferences.use_preferences_save = False
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gui_common import MODULE, OUT, area, grab, log, region, window  # noqa: E402
+
 DRAWN = set()
-
-
-def log(**values):
-    values["t"] = round(time.time() - T0, 2)
-    print("UNBOUND_GUI " + json.dumps(values), flush=True)
 
 
 def mod(name):
     return sys.modules[MODULE + "." + name]
-
-
-def window():
-    return bpy.context.window_manager.windows[0]
-
-
-def area(kind):
-    return max((a for a in window().screen.areas if a.type == kind), key=lambda a: a.width * a.height)
-
-
-def region(a, kind='WINDOW'):
-    return next(r for r in a.regions if r.type == kind)
-
-
-def grab(name):
-    path = os.path.join(OUT, name)
-    cp = subprocess.run(["ffmpeg", "-loglevel", "error", "-y", "-f", "x11grab", "-draw_mouse", "0",
-                         "-i", os.environ["DISPLAY"], "-frames:v", "1", path], capture_output=True, text=True)
-    return cp.returncode
 
 
 def session():
@@ -159,7 +131,7 @@ def wait_final(then, timeout=90.0):
 @guarded
 def rendered_view():
     check_view("rendered")
-    log(shot="viewport_rendered.png", rc=grab("viewport_rendered.png"), panels=sorted(DRAWN))
+    log(shot="viewport_rendered.png", rc=grab("viewport_rendered.png")[0], panels=sorted(DRAWN))
     space = area('VIEW_3D').spaces.active
     space.overlay.show_overlays = False
     space.show_gizmo = False
@@ -173,7 +145,7 @@ def rendered_view():
 def no_overlays():
     frame = check_view("no_overlays")
     save_reference(frame, "viewport_reference.png")
-    log(shot="viewport_no_overlays.png", rc=grab("viewport_no_overlays.png"))
+    log(shot="viewport_no_overlays.png", rc=grab("viewport_no_overlays.png")[0])
     ob = bpy.context.view_layer.objects.active
     ob.unbound.mu[1] = 0.6  # as a script sets it: no depsgraph tag, only a redraw
     area('VIEW_3D').tag_redraw()
@@ -202,7 +174,7 @@ def camera_border():
                                                   bpy.context.scene.camera)
     log(step="camera_frame", rect=list(frame_rect))
     check_view("camera_border")
-    log(shot="viewport_camera_border.png", rc=grab("viewport_camera_border.png"))
+    log(shot="viewport_camera_border.png", rc=grab("viewport_camera_border.png")[0])
     bpy.context.scene.render.use_border = False
     rv3d = view3d.spaces.active.region_3d
     rv3d.view_perspective = 'ORTHO'
@@ -214,7 +186,7 @@ def camera_border():
 @guarded
 def ortho():
     check_view("ortho")
-    log(shot="viewport_ortho.png", rc=grab("viewport_ortho.png"))
+    log(shot="viewport_ortho.png", rc=grab("viewport_ortho.png")[0])
     quit_blender()
 
 
