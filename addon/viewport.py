@@ -223,8 +223,11 @@ class Session:
                 submitted = self._submitted.pop(generation)
             try:
                 self._refine(req, generation, cancel, submitted)
-            except (ValueError, TypeError, ImportError) as exc:
+            except (ValueError, TypeError, ImportError) as exc:  # the core's answers to bad input
                 self._publish(generation, cancel, submitted, None, 1, (0, 0, 0, 0), 0, 0, True, str(exc))
+            except Exception as exc:  # noqa: BLE001 - e.g. MemoryError: shown, and the worker lives on
+                message = "%s: %s" % (type(exc).__name__, exc)
+                self._publish(generation, cancel, submitted, None, 1, (0, 0, 0, 0), 0, 0, True, message)
             with self._cond:
                 if self._generation == generation or self._stopping:
                     self._finished = generation
