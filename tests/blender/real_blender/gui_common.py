@@ -39,3 +39,28 @@ def grab(name):
                          "-i", os.environ["DISPLAY"], "-frames:v", "1", os.path.join(OUT, name)],
                         capture_output=True, text=True)
     return cp.returncode, cp.stderr.strip()[-300:]
+
+
+def watch_panels(drawn):
+    """Record in the set `drawn` which of the add-on's panels Blender draws: an extra draw
+    function appended to each (it draws nothing). (Replacing Panel.draw after registration
+    crashes 4.3.)"""
+    for cls in sys.modules[MODULE + ".ui"].classes:
+        if issubclass(cls, bpy.types.Panel):
+            cls.append(lambda self, context, _name=cls.__name__: drawn.add(_name))
+
+
+def fractal_scene():
+    """The startup scene with its cube replaced by a fractal (the add-on's operator, in the 3D
+    viewport), selected and active, rendered by Unbound: (operator result, object, scene)."""
+    view3d = area('VIEW_3D')
+    with bpy.context.temp_override(window=window(), area=view3d, region=region(view3d)):
+        for ob in list(bpy.context.scene.objects):
+            if ob.type == 'MESH':
+                bpy.data.objects.remove(ob)
+        res = bpy.ops.object.unbound_fractal_add()
+    ob = bpy.context.view_layer.objects.active
+    ob.select_set(True)
+    scene = bpy.context.scene
+    scene.render.engine = 'UNBOUND'
+    return res, ob, scene

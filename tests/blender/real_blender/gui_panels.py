@@ -11,19 +11,10 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gui_common import MODULE, area, grab, log, region, window  # noqa: E402
+from gui_common import MODULE, area, fractal_scene, grab, log, region, watch_panels, window  # noqa: E402
 
 STEP_S = 1.0      # between a change and its screenshot: a few redraws of the whole window
 DRAWN = set()   # the add-on's panels whose draw() ran since the last tab change
-
-
-def watch_panels():
-    """Record which of the add-on's panels the Properties editor draws: an extra draw function
-    appended to each (it draws nothing). (Replacing Panel.draw after registration crashes 4.3.)"""
-    for cls in sys.modules[MODULE + ".ui"].classes:
-        if not issubclass(cls, bpy.types.Panel):
-            continue
-        cls.append(lambda self, context, _name=cls.__name__: DRAWN.add(_name))
 
 
 def shot(name):
@@ -50,18 +41,9 @@ def scroll_to_end():
 
 
 def setup():
-    watch_panels()
+    watch_panels(DRAWN)
     win = window()
-    view3d = area('VIEW_3D')
-    with bpy.context.temp_override(window=win, area=view3d, region=region(view3d)):
-        for ob in list(bpy.context.scene.objects):
-            if ob.type == 'MESH':
-                bpy.data.objects.remove(ob)
-        res = bpy.ops.object.unbound_fractal_add()
-    ob = bpy.context.view_layer.objects.active
-    ob.select_set(True)
-    scene = bpy.context.scene
-    scene.render.engine = 'UNBOUND'
+    res, ob, scene = fractal_scene()
     log(step="setup", addon_enabled=MODULE in bpy.context.preferences.addons, add_op=sorted(res),
         active=ob.name if ob else None, is_fractal=bool(ob and ob.unbound.is_fractal), engine=scene.render.engine,
         window=[win.width, win.height])

@@ -16,7 +16,7 @@ import bpy
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gui_common import MODULE, OUT, area, grab, log, region, window  # noqa: E402
+from gui_common import MODULE, OUT, area, fractal_scene, grab, log, region, watch_panels, window  # noqa: E402
 
 DRAWN = set()
 
@@ -67,19 +67,9 @@ def save_reference(frame, name):
 
 
 def setup():
-    for cls in mod("ui").classes:
-        if issubclass(cls, bpy.types.Panel):
-            cls.append(lambda self, context, _name=cls.__name__: DRAWN.add(_name))
+    watch_panels(DRAWN)
+    res, ob, scene = fractal_scene()
     view3d = area('VIEW_3D')
-    with bpy.context.temp_override(window=window(), area=view3d, region=region(view3d)):
-        for ob in list(bpy.context.scene.objects):
-            if ob.type == 'MESH':
-                bpy.data.objects.remove(ob)
-        res = bpy.ops.object.unbound_fractal_add()
-    ob = bpy.context.view_layer.objects.active
-    ob.select_set(True)
-    scene = bpy.context.scene
-    scene.render.engine = 'UNBOUND'
     scene.render.dither_intensity = 0.0  # screenshots compared with Blender's own colour management
     scene.unbound.viewport_start_divisor = '8'
     props = area('PROPERTIES')
