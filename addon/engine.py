@@ -28,27 +28,27 @@ class RenderError(Exception):
 def camera_description(engine, depsgraph, width, height):
     """The native camera dict: Blender's own camera matrix and projection matrix, so focal length,
     sensor size and fit, shift, clipping, orthographic scale and pixel aspect all come for free."""
-    scene = depsgraph.scene
-    cam_ob = engine.camera_override or scene.camera
+    cam_ob = evaluated_camera(engine.camera_override or depsgraph.scene.camera, depsgraph)
+    return camera_dict(depsgraph, cam_ob, engine.camera_model_matrix(cam_ob, use_spherical_stereo=False),
+                       width, height)
+
+
+def evaluated_camera(cam_ob, depsgraph):
+    """The evaluated camera object to render through, or a RenderError a user can act on."""
     if cam_ob is None:
         raise RenderError("The scene has no camera: add one or set Scene > Camera")
     cam_ob = cam_ob.evaluated_get(depsgraph)
     if cam_ob.type != 'CAMERA':
         raise RenderError("The scene camera '%s' is not a camera object" % cam_ob.name)
-    return camera_dict(depsgraph, cam_ob, engine.camera_model_matrix(cam_ob, use_spherical_stereo=False),
-                       width, height)
-
-
-def check_camera_type(cam_ob):
     if cam_ob.data.type not in {'PERSP', 'ORTHO'}:
         raise RenderError("the camera '%s' is %s; only perspective and orthographic cameras are supported"
                           % (cam_ob.name, {'PANO': "panoramic"}.get(cam_ob.data.type, cam_ob.data.type.lower())))
+    return cam_ob
 
 
 def camera_dict(depsgraph, cam_ob, matrix, width, height):
     """The native camera dict of camera object `cam_ob` (evaluated) placed at `matrix`, for an
     image of width x height pixels."""
-    check_camera_type(cam_ob)
     r = depsgraph.scene.render
     projection = cam_ob.calc_matrix_camera(depsgraph, x=width, y=height, scale_x=r.pixel_aspect_x,
                                            scale_y=r.pixel_aspect_y)

@@ -36,11 +36,11 @@ class UNBOUND_OT_fractal_preset_add(AddPresetBase, bpy.types.Operator):
     preset_subdir = PRESET_SUBDIR
     preset_defines = ["ob = bpy.context.object", "scene = bpy.context.scene"]
     # Every fractal and scene setting, read from the PropertyGroups so a new one is never left out;
-    # not the ramp texture (a datablock) nor machine-specific render settings.
+    # not the ramp texture (a datablock) nor machine-specific render or viewport settings.
     preset_values = (["ob.unbound." + name for name in UnboundObjectSettings.__annotations__
                       if name not in {"is_fractal", "color_ramp_texture", "path_curve", "ifs_active_map"}]
                      + ["scene.unbound." + name for name in UnboundSceneSettings.__annotations__
-                        if name not in {"tile_size", "simd"}])
+                        if name not in {"tile_size", "simd"} and not name.startswith("viewport_")])
 
     @classmethod
     def poll(cls, context):

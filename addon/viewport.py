@@ -65,11 +65,8 @@ def view_part(context, depsgraph):
     window = (0, 0, width, height)
     try:
         if rv3d.view_perspective == 'CAMERA':
-            cam_ob = v3d.camera if v3d.use_local_camera and v3d.camera else scene.camera
-            if cam_ob is None or cam_ob.type != 'CAMERA':
-                raise final.RenderError("The scene has no camera: add one or set Scene > Camera")
-            cam_ob = cam_ob.evaluated_get(depsgraph)
-            final.check_camera_type(cam_ob)
+            cam_ob = final.evaluated_camera(v3d.camera if v3d.use_local_camera and v3d.camera else scene.camera,
+                                           depsgraph)
             near, far = cam_ob.data.clip_start, cam_ob.data.clip_end
             if scene.render.use_border:
                 r = scene.render
@@ -125,13 +122,8 @@ def request(scene_fields, view_fields):
 
 
 def refinement_levels(start_divisor):
-    """Divisors of the refinement, coarsest first: 8 -> (8, 4, 2, 1)."""
-    d = 1 << max(0, int(start_divisor).bit_length() - 1)  # a power of two, at most start_divisor
-    levels = []
-    while d >= 1:
-        levels.append(d)
-        d //= 2
-    return levels
+    """Divisors of the refinement (a power of two to start), coarsest first: 8 -> [8, 4, 2, 1]."""
+    return [start_divisor >> i for i in range(start_divisor.bit_length())]
 
 
 class Session:
@@ -147,8 +139,7 @@ class Session:
         self._generation = 0      # of the latest request
         self._started = 0         # generation the worker last took up
         self._finished = 0        # generation whose refinement ended (complete, capped or failed)
-        self._submitted = {}      # generation -> perf_counter() of update()
-        self._updated = time.perf_counter()
+        self._updated = time.perf_counter()  # of the latest update()
         self._cancel = threading.Event()
         self._frame = None
         self._sequence = 0
@@ -176,7 +167,7 @@ class Session:
                 return False
             self._request, self._request_key = req, key
             self._generation += 1
-            self._updated = self._submitted[self._generation] = time.perf_counter()
+            self._updated = time.perf_counter()
             self._cancel.set()
             self._cond.notify_all()
             return True
@@ -220,7 +211,7 @@ class Session:
                 req, generation = self._request, self._generation
                 self._started = generation
                 self._cancel = cancel = threading.Event()
-                submitted = self._submitted.pop(generation)
+                submitted = self._updated
             try:
                 self._refine(req, generation, cancel, submitted)
             except (ValueError, TypeError, ImportError) as exc:  # the core's answers to bad input
@@ -234,10 +225,8 @@ class Session:
                 self._cond.notify_all()
 
     def _refine(self, req, generation, cancel, submitted):
-        if req.error:
-            raise ValueError(req.error)
-        if req.window is None:  # an empty render border: nothing to draw
-            self._publish(generation, cancel, submitted, None, 1, (0, 0, 0, 0), 0, 0, True, None)
+        if req.error or req.window is None:  # an error, or an empty render border: nothing to draw
+            self._publish(generation, cancel, submitted, None, 1, (0, 0, 0, 0), 0, 0, True, req.error)
             return
         core = utils.native()
         x0, y0, w, h = req.window
@@ -250,7 +239,7 @@ class Session:
             stats = core.render(req.camera, req.objects, passes, **kw, **options)
             if stats["cancelled"]:
                 with self._cond:
-                    newer = self._submitted.get(self._generation)
+                    newer = self._updated if self._generation != generation else None
                 if newer is not None:  # cancelled by a newer request, not by stop()
                     self.cancellations.append((generation, time.perf_counter() - newer))
             return not stats["cancelled"]
@@ -286,9 +275,9 @@ class Session:
                 return self._finalize(generation)
             if not render({"combined": image}, window=req.window, sample_range=(s, 1)):
                 return
-            pixels = image if s == samples - 1 else image * np.float32(1.0 / (s + 1))
-            self._publish(generation, cancel, submitted, pixels, 1, req.window, s + 1, samples,
-                          s == samples - 1, None)
+            # Before the last sample the image holds a sum: shown as the mean of the samples done.
+            self._publish(generation, cancel, submitted, image, 1, req.window, s + 1, samples,
+                          s == samples - 1, None, scale=1.0 if s == samples - 1 else 1.0 / (s + 1))
 
     def _finalize(self, generation):
         """Stopped by the time cap: the last frame published is the final one."""
@@ -300,14 +289,15 @@ class Session:
         if self._redraw is not None:
             self._redraw()
 
-    def _publish(self, generation, cancel, submitted, pixels, divisor, window, samples_done, samples, last, error):
+    def _publish(self, generation, cancel, submitted, pixels, divisor, window, samples_done, samples, last, error,
+                 scale=1.0):
         elapsed = time.perf_counter() - submitted
         with self._cond:
             if cancel.is_set() or generation != self._generation:
                 return  # stale: a newer request is already on its way
             self._sequence += 1
-            # A copy: the worker goes on writing into the image it renders.
-            copy = None if pixels is None else np.array(pixels, dtype=np.float32, order='C')
+            # A (scaled) copy: the worker goes on writing into the image it renders.
+            copy = None if pixels is None else np.multiply(pixels, np.float32(scale), dtype=np.float32)
             self._frame = Frame(generation, self._sequence, copy, divisor, window, samples_done, samples,
                                 elapsed, last, error)
             self.log.append((generation, divisor, samples_done, elapsed, last))

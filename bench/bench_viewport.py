@@ -36,34 +36,25 @@ USER = pathlib.Path(tempfile.mkdtemp(prefix="unbound-bench-user-"))
 os.environ["BLENDER_USER_RESOURCES"] = str(USER)  # before bpy starts: a private user directory
 
 import bpy  # noqa: E402
-from mathutils import Vector  # noqa: E402
 
-sys.path.insert(0, str(REPO / "bench"))
-from bench_core import machine  # noqa: E402
+sys.path.insert(0, str(REPO / "examples"))
+from unbound_extension import add_camera, ensure_extension, new_scene  # noqa: E402
 
-MODULE = "bl_ext.user_default.unbound"
 TARGET_FIRST_S = 0.050
 TARGET_FULL_RATIO = 1.2
 
 
 def install():
-    zips = sorted((REPO / "dist").glob("unbound-*.zip"))
-    if not zips:
-        sys.exit("build the extension first: make extension")
-    bpy.ops.extensions.package_install_files(filepath=str(zips[-1]), repo='user_default', enable_on_install=True)
-    return sys.modules[MODULE + ".viewport"], sys.modules[MODULE + ".engine"]
+    """The extension's viewport and engine modules, and its native core (loaded now, so that
+    bench_core, imported after, shares it instead of importing the unpacked wheel)."""
+    module = ensure_extension(prog="bench_viewport")
+    sys.modules[module + ".utils"].native()
+    return sys.modules[module + ".viewport"], sys.modules[module + ".engine"]
 
 
 def build_scene(width, height, start, heavy):
-    bpy.ops.wm.read_homefile(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.engine = 'UNBOUND'
-    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    cam.location = (-2.0, -2.0, 1.0)
-    cam.rotation_euler = (Vector((0, 0, 0)) - cam.location).to_track_quat('-Z', 'Y').to_euler()
-    scene.camera = cam
+    scene = new_scene(width, height, world_color=(0.05, 0.05, 0.05))
+    add_camera(scene, (-2.0, -2.0, 1.0), (0.0, 0.0, 0.0), lens=50.0)
     bpy.ops.object.unbound_fractal_add(use_cursor=False)
     s = scene.unbound
     s.viewport_start_divisor = str(start)
@@ -116,19 +107,16 @@ def run(viewport, engine, scene, ob, repeats):
     return rows
 
 
-def med(values, scale=1.0, unit=""):
-    v = [x * scale for x in values]
-    return "%.4g%s (%.4g-%.4g)" % (statistics.median(v), unit, min(v), max(v))
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--res", default="1280x720")
     ap.add_argument("--start", type=int, default=8, choices=(1, 2, 4, 8, 16, 32, 64))
     args = ap.parse_args()
-    width, height = (int(v) for v in args.res.split("x"))
     viewport, engine = install()
+    sys.path.insert(0, str(REPO / "bench"))
+    from bench_core import machine, med, parse_res
+    width, height = parse_res(args.res, ap)
     print("machine:", machine())
     print("bpy %s; view %dx%d; start 1/%d; %d rounds after a warm-up; medians (min-max)"
           % (bpy.app.version_string, width, height, args.start, args.repeats))
@@ -141,11 +129,10 @@ def main():
         full = [r["full"] for r in rows]
         ratio = [r["full"] / r["f12"] for r in rows]
         print("\n%s:" % label)
-        print("  change -> first image (1/%d)   %s" % (args.start, med(first, 1e3, " ms")))
-        print("  change -> full refinement      %s   (%d frames published)" % (med(full, 1.0, " s"),
-                                                                             rows[0]["levels"]))
-        print("  F12 of the same view           %s   (native core %s)"
-              % (med([r["f12"] for r in rows], 1.0, " s"), med([r["core"] for r in rows], 1.0, " s")))
+        print("  change -> first image (1/%d)   %s ms" % (args.start, med([t * 1e3 for t in first])))
+        print("  change -> full refinement      %s s   (%d frames published)" % (med(full), rows[0]["levels"]))
+        print("  F12 of the same view           %s s   (native core %s s)"
+              % (med([r["f12"] for r in rows]), med([r["core"] for r in rows])))
         print("  full refinement / F12          %s   (per round, median)" % med(ratio))
         print("  full refinement / core time    %s" % med([r["full"] / r["core"] for r in rows]))
         good_first = statistics.median(first) <= TARGET_FIRST_S
@@ -154,8 +141,6 @@ def main():
               % (TARGET_FIRST_S * 1e3, "met" if good_first else "MISSED", round((TARGET_FULL_RATIO - 1) * 100),
                  "met" if good_full else "MISSED"))
         ok = ok and good_first and good_full
-    import addon_utils
-    addon_utils.disable(MODULE, default_set=False)
     shutil.rmtree(USER, ignore_errors=True)
     return 0 if ok else 1
 

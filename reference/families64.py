@@ -68,21 +68,6 @@ def stack_escape(points, path, height, max_iterations, bailout=4.0):
     return escaped, in_slab, np.abs(z), dz, dc
 
 
-def julia_estimate_2d(z, c, max_iterations, bailout=4.0):
-    """The planar distance estimate |z_n| log|z_n| / (2 |z_n'|) of the complex Julia set of c."""
-    z = np.asarray(z, np.complex128)
-    bail = max(bailout, qj.bounding_radius([abs(c), 0, 0, 0]))
-    dz = np.ones(z.shape)
-    escaped = np.zeros(z.shape, bool)
-    for _ in range(max_iterations):
-        active = ~escaped
-        dz = np.where(active, 2.0 * np.abs(z) * dz, dz)
-        z = np.where(active, z * z + c, z)
-        escaped |= active & (np.abs(z) > bail)
-    r = np.abs(z)
-    return np.where(escaped, r * np.log(np.maximum(r, 1.0)) / (2.0 * dz), 0.0)
-
-
 # -- the cubic connectedness locus -----------------------------------------------------------------
 
 def cubic_bounded(q, sign, max_iterations, bailout, extent):

@@ -53,14 +53,19 @@ build() {
 		-fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=undefined"
 	rm -rf "$OUT"
 	mkdir -p "$OUT/obj" "$OUT/unbound_core"
+	pids=
 	for src in native/src/*.c; do
 		extra=
 		# kernel_avx2.c gets its ISA from `#pragma GCC target`, which clang ignores.
 		case $src in *avx2*) extra="-mavx2 -mfma" ;; esac
 		# shellcheck disable=SC2086
 		clang $flags $extra -c "$src" -o "$OUT/obj/$(basename "$src" .c).o" &
+		pids="$pids $!"
 	done
-	wait
+	# A bare `wait` returns 0 whatever the compilers did: wait for each and fail with it.
+	for pid in $pids; do
+		wait "$pid" || die "compiling native/src failed"
+	done
 	# shellcheck disable=SC2086
 	clang -shared -fsanitize=address,undefined,fuzzer-no-link "$OUT"/obj/*.o -lm -lpthread \
 		-o "$OUT/unbound_core/_native.abi3.so"
@@ -96,7 +101,8 @@ test)
 		"$PY" -m pytest -q -p no:cacheprovider tests/native "$@" >"$log" 2>&1
 	status=$?
 	set -e
-	tail -n 5 "$log"
+	# pytest's summary, not LeakSanitizer's exit report that follows it.
+	sed '/^=\{20,\}$/,$d' "$log" | tail -n 30
 	"$PY" tools/lsan_report.py "$log" || status=1
 	exit $status
 	;;

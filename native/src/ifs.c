@@ -135,6 +135,8 @@ double ub_ifs_distance(const ub_object *o, const double p[3], double *address, i
     ifs_entry stack[UB_MAX_IFS_DEPTH * (UB_MAX_IFS_MAPS - 1) + 2];
     ifs_level levels[UB_MAX_IFS_DEPTH + 1];
     int sp = 0;
+    *address = 0.0;
+    *depth = 0;
     double d0 = dist3(p, o->ifs_center);
     if (!isfinite(d0))
         return d0; /* NaN: never a hit, and the marcher's step falls back to its maximum */
@@ -147,8 +149,6 @@ double ub_ifs_distance(const ub_object *o, const double p[3], double *address, i
     span[0] = 1.0;
     for (int k = 1; k <= max_depth; k++)
         span[k] = span[k - 1] / m;
-    *address = 0.0;
-    *depth = 0;
     while (sp > 0) {
         ifs_entry n = stack[--sp];
         if (n.lower >= best || n.lower > upper)

@@ -204,8 +204,7 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
             if (o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0) {
                 double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, n[3];
                 double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-                if (UB_FN(zbuffer_normal)(sc, off, fx + l + (sc->film->x0 - hb->x0) / hb->step,
-                                          fy + (sc->film->y0 - hb->y0) / hb->step, k,
+                if (UB_FN(zbuffer_normal)(sc, off, fx + l + hb->apron_x, fy + hb->apron_y, k,
                                           p, tr->t[l], d, n)) {
                     for (int i = 0; i < 3; i++)
                         nw[i][l] = n[i];
@@ -435,8 +434,6 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                         || film->pass[UB_PASS_AO] != NULL);
     double off[2];
     ub_sample_offset(sample, &off[0], &off[1]);
-    /* Film pixel (x, y) is hit-buffer pixel (x + apron_x, y + apron_y): both on the same grid. */
-    const int apron_x = (film->x0 - hb->x0) / film->step, apron_y = (film->y0 - hb->y0) / film->step;
 
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
@@ -449,7 +446,7 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
             UB_FN(camera_packet)(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, off, &pr);
             for (int l = 0; l < UB_LANES; l++) {
                 int lx = x + (l < n ? l : n - 1);
-                const ub_hit *h = &hb->hits[(size_t)(y + apron_y) * hb->w + (lx + apron_x)];
+                const ub_hit *h = &hb->hits[(size_t)(y + hb->apron_y) * hb->w + (lx + hb->apron_x)];
                 tr.t[l] = h->t;
                 tr.iters[l] = h->iterations;
                 tr.dist[l] = h->distance;

@@ -198,6 +198,8 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     hb.y0 = film->y0 - bottom * step;
     hb.w = film->w + left + right;
     hb.h = film->h + bottom + top;
+    hb.apron_x = left;
+    hb.apron_y = bottom;
     hb.hits = malloc((size_t)hb.w * (size_t)hb.h * sizeof(ub_hit));
     ub_scene scene = *scene_in;
     scene.hits = &hb;

@@ -228,8 +228,9 @@ typedef struct {
 typedef struct {
     /* The film's pixels plus a one-pixel apron (clipped to the image), on the film's grid:
      * buffer pixel (i, j) is image pixel (x0 + step i, y0 + step j). With step 1, normals at a
-     * window's edge equal the full render's. */
-    int x0, y0, w, h, step;
+     * window's edge equal the full render's. Film pixel (x, y) is buffer pixel
+     * (x + apron_x, y + apron_y): apron_x is 1 when the buffer has a column left of the film. */
+    int x0, y0, w, h, step, apron_x, apron_y;
     ub_hit *hits;
 } ub_hit_buffer;
 

@@ -38,7 +38,8 @@ def test_every_kind_renders_every_pass(run_bpy):
             n = np.stack([exr["ViewLayer.Normal." + c] for c in "XYZ"], -1)
             out[kind] = dict(finite=finite, coverage=float(obj.mean()),
                              normal_error=float(np.abs(np.linalg.norm(n[obj], axis=-1) - 1).max()),
-                             passes=len(exr), display=ob.empty_display_size)
+                             passes=len(exr), display=ob.empty_display_size,
+                             channels=sum(p.channels for p in mod.passes.PASSES))
         S.report(out=out)
     """ % KINDS, timeout=600)
     for kind, v in r["out"].items():
@@ -46,6 +47,7 @@ def test_every_kind_renders_every_pass(run_bpy):
         assert 0.02 < v["coverage"] < 0.9, (kind, v)
         assert v["normal_error"] < 1e-3, (kind, v)
         assert v["display"] > 0.5, (kind, v)
+        assert v["passes"] >= v["channels"], (kind, v)  # every pass reached the EXR
 
 
 def test_kind_parameters_are_keyframeable(run_bpy):

@@ -209,6 +209,7 @@ def test_ctrl_c_cancels_a_1080p_render_within_100ms(user_dir):
     assert r, out[-4000:]
     assert r["stats"] and r["stats"]["cancelled"] is True, r
     assert 0 < r["stats"]["rays"] <= 1920 * 1080, r
+    assert r["latency"] is not None, out[-4000:]
     print("Ctrl-C to render return: %.1f ms" % (r["latency"] * 1000))
     assert 0 < r["latency"] < 0.1, r
     assert "Sent an internal break event" in out and "Blender quit" in out, out[-4000:]

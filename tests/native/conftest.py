@@ -20,6 +20,24 @@ SANITIZED = bool(os.environ.get("UNBOUND_SANITIZED"))
 import unbound_core as uc  # noqa: E402
 
 
+# Every effect at once (two samples, soft shadows from an area and a spot light, two bounces, AO,
+# fog, glow, a reflective sea), and one object of each kind: shared by the tests that compare whole
+# renders byte for byte (determinism, progressive refinement).
+HEAVY_SHADING = dict(samples=2, shadows="soft", reflection_depth=2, ao_strength=0.5, ao_samples=3, glow_strength=0.5,
+                     fog_density=0.1, sea=dict(height=-1.2, reflectivity=0.3),
+                     lights=[dict(type="area", position=(2.0, -2.0, 3.0), radius=0.4),
+                             dict(type="spot", position=(-2.0, -2.0, 2.0), direction=(1.0, 1.0, -1.0))])
+KIND_OBJECTS = {
+    "quaternion_julia": dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=14, reflectivity=0.3),
+    "quaternion_mandelbrot": dict(kind="quaternion_mandelbrot", max_iterations=12),
+    "julia_stack": dict(kind="julia_stack", path=[(-0.12, 0.75), (-0.8, 0.15)]),
+    "cubic_locus": dict(kind="cubic_locus", cubic_component="union", extent=1.2),
+    "ifs": dict(kind="ifs", ifs_depth=4, maps=[[[0.5, 0, 0, x], [0, 0.5, 0, y], [0, 0, 0.5, z]]
+                                               for x, y, z in ((-0.5, -0.3, -0.3), (0.5, -0.3, -0.3),
+                                                               (0, 0.5, -0.3), (0, 0, 0.5))]),
+}
+
+
 def make_camera(width=64, height=48, eye=(0.4, -3.0, 0.9), target=(0.0, 0.0, 0.0), fov_y=0.7,
                 ortho_height=None, clip=(0.1, 100.0)):
     matrix = uc.look_at(eye, target, (0.0, 0.0, 1.0))

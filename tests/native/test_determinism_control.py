@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import make_camera, render
+from conftest import HEAVY_SHADING, KIND_OBJECTS, make_camera, render
 
 OBJ = dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=14)
 
@@ -125,21 +125,6 @@ def test_union_of_two_objects_takes_nearest():
     assert np.array_equal(both["depth"], np.minimum(a["depth"], b["depth"]))
     swapped, _ = render(cam, [right, left], ["depth", "alpha"])
     assert np.array_equal(swapped["depth"], both["depth"])
-
-
-HEAVY_SHADING = dict(samples=2, shadows="soft", reflection_depth=2, ao_strength=0.5, ao_samples=3, glow_strength=0.5,
-                     fog_density=0.1, sea=dict(height=-1.2, reflectivity=0.3),
-                     lights=[dict(type="area", position=(2.0, -2.0, 3.0), radius=0.4),
-                             dict(type="spot", position=(-2.0, -2.0, 2.0), direction=(1.0, 1.0, -1.0))])
-KIND_OBJECTS = {
-    "quaternion_julia": dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=14, reflectivity=0.3),
-    "quaternion_mandelbrot": dict(kind="quaternion_mandelbrot", max_iterations=12),
-    "julia_stack": dict(kind="julia_stack", path=[(-0.12, 0.75), (-0.8, 0.15)]),
-    "cubic_locus": dict(kind="cubic_locus", cubic_component="union", extent=1.2),
-    "ifs": dict(kind="ifs", ifs_depth=4, maps=[[[0.5, 0, 0, x], [0, 0.5, 0, y], [0, 0, 0.5, z]]
-                                               for x, y, z in ((-0.5, -0.3, -0.3), (0.5, -0.3, -0.3),
-                                                               (0, 0.5, -0.3), (0, 0, 0.5))]),
-}
 
 
 @pytest.mark.parametrize("kind", sorted(KIND_OBJECTS))

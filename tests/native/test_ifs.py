@@ -178,3 +178,15 @@ def test_many_nearly_equal_maps_stay_a_lower_bound():
     assert np.all(est <= nearest + 1e-6)
     est, _, _ = estimate(dict(kind="ifs", ifs_depth=16), [(np.nan, 0, 0), (0.5, 0.5, 0.5)])
     assert np.isnan(est[0]) and np.isfinite(est[1])
+
+
+def test_nan_points_have_a_defined_escape_count():
+    """A NaN point's settled depth is 0 whatever the other lanes of its packet hold (it was left
+    unset, and showed the previous lane's count)."""
+    sponge = dict(kind="ifs", ifs_depth=8)
+    near = [(0.3, 0.2, 0.1)] * 3
+    for layout in ([near[0], (np.nan, 0, 0)] * 4, near + [(np.nan, np.nan, np.nan)] * 5):
+        est, iters, _ = estimate(sponge, layout)
+        nan_rows = np.isnan(np.asarray(layout, float)).any(axis=1)
+        assert np.isnan(est[nan_rows]).all() and (iters[~nan_rows] > 0).all()
+        assert (iters[nan_rows] == 0).all(), iters

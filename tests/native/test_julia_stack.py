@@ -10,6 +10,7 @@ import unbound_core as uc
 
 from conftest import check_no_passthrough, dense_sampling, estimate, make_camera, render
 from reference import families64 as ref
+from reference import qjulia64 as qj
 
 ITERS = 32
 HEIGHT = 2.0
@@ -34,7 +35,9 @@ def test_constant_path_is_an_extrusion(path):
     for z in (-0.99, -0.3, 0.5, 0.999):
         moved, _, _ = estimate(obj, np.column_stack([xy, np.full(len(xy), z)]))
         np.testing.assert_array_equal(moved, base)
-    want = ref.julia_estimate_2d(xy.astype(np.float32).astype(np.float64) @ [1, 1j], complex(*path[0]), ITERS)
+    # The planar Julia estimate: the quaternion one on the 1-i plane (z and mu with no j, k part).
+    xy0 = np.column_stack([xy.astype(np.float32).astype(np.float64), np.zeros(len(xy))])
+    want = qj.distance_estimate(qj.slice_points(xy0), (*path[0], 0.0, 0.0), ITERS, 4.0)[0]
     big = want > 1e-3
     assert big.sum() > 1000 and (want == 0).sum() > 200
     np.testing.assert_allclose(base[big], want[big], rtol=2e-3)

@@ -4,6 +4,8 @@ References: the float64 iteration of reference/families64.py; the rotational sym
 1-i-j slice (the quaternion Mandelbrot set is a solid of revolution about the real axis, since
 z^2 + c stays in the plane spanned by 1 and c); the classic complex Mandelbrot set on the 1-i
 plane."""
+import functools
+
 import numpy as np
 import pytest
 import unbound_core as uc
@@ -64,21 +66,29 @@ def test_solid_of_revolution():
     assert np.mean((turned == 0) != (plane == 0)) < 0.01
 
 
+PASSTHROUGH_BASIS = np.linalg.qr(np.random.default_rng(2).normal(size=(4, 3)))[0]
+PASSTHROUGH_CAMERA = make_camera(32, 24, eye=(1.2, -3.0, 1.5), target=(-0.4, 0, 0), fov_y=0.9)
+
+
+@functools.cache
+def passthrough_reference():
+    """Dense float64 samples along the camera's rays: (first solid t, first shell t) per pixel;
+    the same for both bisection settings, so computed once."""
+    def classify(p):
+        r, dz, escaped = ref.mandelbrot(p @ PASSTHROUGH_BASIS.T, ITERS)
+        return ~escaped, ~escaped | (r * np.log(np.maximum(r, 1.0)) / (2.0 * dz) < 2e-3)
+
+    return dense_sampling(PASSTHROUGH_CAMERA, classify, (0, 0, 0), 2.0, 5e-4)
+
+
 @pytest.mark.parametrize("bisection", [0, 10])
 def test_no_ray_passes_through(bisection):
     """Dense float64 sampling along the native core's own rays: every ray that meets a solid piece
     of the set (orbit bounded for ITERS steps) hits, never beyond it; the hits lie where the
     float64 estimate first drops below the fixed threshold 2e-3 for nearly every ray."""
-    rng = np.random.default_rng(2)
-    basis, _ = np.linalg.qr(rng.normal(size=(4, 3)))
-    cam = make_camera(32, 24, eye=(1.2, -3.0, 1.5), target=(-0.4, 0, 0), fov_y=0.9)
-    obj = dict(kind="quaternion_mandelbrot", max_iterations=ITERS, slice_basis=basis.tolist(), epsilon_mode="fixed",
-               epsilon=2e-3, bisection_steps=bisection)
+    cam = PASSTHROUGH_CAMERA
+    obj = dict(kind="quaternion_mandelbrot", max_iterations=ITERS, slice_basis=PASSTHROUGH_BASIS.tolist(),
+               epsilon_mode="fixed", epsilon=2e-3, bisection_steps=bisection)
     passes, _ = render(cam, [obj], ["alpha", "position"])
-
-    def classify(p):
-        r, dz, escaped = ref.mandelbrot(p @ basis.T, ITERS)
-        return ~escaped, ~escaped | (r * np.log(np.maximum(r, 1.0)) / (2.0 * dz) < 2e-3)
-
-    t_solid, t_shell = dense_sampling(cam, classify, (0, 0, 0), 2.0, 5e-4)
+    t_solid, t_shell = passthrough_reference()
     check_no_passthrough(cam, passes, t_solid, t_shell, slack=2e-3, agree_tol=0.02, agree_fraction=0.95)
