@@ -5,42 +5,7 @@ import pytest
 
 
 def test_passes_reach_compositor_and_exr(run_bpy):
-    r = run_bpy("""
-        import numpy as np
-        scene = S.empty_scene(80, 60)
-        scene.render.film_transparent = True  # Combined alpha is then the coverage
-        S.add_camera(scene)
-        S.add_fractal()
-        vl = scene.view_layers[0]
-        for p in mod.passes.PASSES:
-            if p.toggle:
-                setattr(vl.unbound, p.toggle, True)
-        tree = mod.utils.compositor_tree(scene, create=True)
-        rl = tree.nodes.new("CompositorNodeRLayers")
-        sockets = [s.name for s in rl.outputs if s.enabled]
-        exr = S.render_to_exr(scene)
-        # The writer's data equals a direct native render of the same camera (rows: EXR top-down).
-        import unbound_core
-        from bl_ext.user_default.unbound import engine
-        dg = bpy.context.evaluated_depsgraph_get()
-        class Cam:  # the camera description needs only these two engine methods
-            camera_override = None
-            def camera_model_matrix(self, ob, use_spherical_stereo=False):
-                return ob.matrix_world
-        cam = engine.camera_description(Cam(), dg, 80, 60)
-        bufs = {n: np.empty((60, 80, c), np.float32) for n, c in unbound_core.PASS_CHANNELS.items()}
-        unbound_core.render(cam, engine.fractal_objects(dg), bufs)
-        diffs = {}
-        for name, chans, native in [("Depth", "Z", "depth"), ("Iterations", "X", "iterations"),
-                                    ("Steps", "X", "steps"), ("Distance", "X", "distance"),
-                                    ("Normal", "XYZ", "normal"), ("Position", "XYZ", "position")]:
-            got = np.stack([exr["ViewLayer.%s.%s" % (name, c)] for c in chans], -1)[::-1]
-            diffs[name] = float(np.max(np.abs(got - bufs[native])))
-        alpha = exr["ViewLayer.Combined.A"][::-1]
-        diffs["alpha"] = float(np.max(np.abs(alpha - bufs["alpha"][..., 0])))
-        S.report(sockets=sockets, channels=sorted(exr), diffs=diffs, coverage=float(alpha.mean()),
-                 stats=mod.engine.LAST_STATS)
-    """)
+    r = run_bpy("engine.passes_reach_compositor_and_exr")
     assert r["sockets"][:2] == ["Image", "Alpha"]
     assert set(r["sockets"]) >= {"Depth", "Normal", "Position", "Iterations", "Steps", "Distance"}
     for ch in ["ViewLayer.Depth.Z", "ViewLayer.Normal.X", "ViewLayer.Position.Z", "ViewLayer.Iterations.X",
@@ -52,42 +17,13 @@ def test_passes_reach_compositor_and_exr(run_bpy):
 
 
 def test_disabled_passes_are_not_registered(run_bpy):
-    r = run_bpy("""
-        scene = S.empty_scene(32, 24)
-        S.add_camera(scene)
-        S.add_fractal()
-        scene.view_layers[0].unbound.use_pass_iterations = True
-        exr = S.render_to_exr(scene)
-        S.report(channels=sorted(exr))
-    """)
+    r = run_bpy("engine.disabled_passes_are_not_registered")
     assert "ViewLayer.Iterations.X" in r["channels"]
     assert not any(".Depth." in c or ".Steps." in c for c in r["channels"])
 
 
 def test_keyframes_and_drivers_reach_the_render(run_bpy):
-    r = run_bpy("""
-        import numpy as np
-        scene = S.empty_scene(48, 36)
-        S.add_camera(scene)
-        ob = S.add_fractal(mu=(-1.0, 0.0, 0.0, 0.0))
-        ob.keyframe_insert("unbound.mu", frame=1)
-        ob.unbound.mu = (0.0, 0.0, 0.0, 0.0)
-        ob.keyframe_insert("unbound.mu", frame=3)
-        fc = ob.driver_add("unbound.theta")
-        fc.driver.expression = "frame * 0.5"
-        scene.view_layers[0].unbound.use_pass_depth = True
-        seen = []
-        for f in (1, 2, 3):
-            scene.frame_set(f)
-            dg = bpy.context.evaluated_depsgraph_get()
-            seen.append(mod.engine.fractal_objects(dg)[0]["mu"][0])
-            seen.append(mod.engine.fractal_objects(dg)[0]["theta"])
-        scene.frame_set(3)
-        ball = S.render_to_exr(scene, "ball.exr")
-        scene.frame_set(1)
-        basilica = S.render_to_exr(scene, "basilica.exr")
-        S.report(seen=seen, same=bool(np.array_equal(ball["ViewLayer.Depth.Z"], basilica["ViewLayer.Depth.Z"])))
-    """)
+    r = run_bpy("engine.keyframes_and_drivers_reach_the_render")
     mu0 = r["seen"][0::2]
     theta = r["seen"][1::2]
     assert mu0 == pytest.approx([-1.0, -0.5, 0.0])
@@ -96,60 +32,20 @@ def test_keyframes_and_drivers_reach_the_render(run_bpy):
 
 
 def test_union_of_objects_instances_and_hidden(run_bpy):
-    r = run_bpy("""
-        import numpy as np
-        scene = S.empty_scene(64, 48)
-        S.add_camera(scene, location=(0, -5, 0))
-        a = S.add_fractal(mu=(0, 0, 0, 0)); a.location = (-1.2, 0, 0); a.scale = (0.7,) * 3
-        b = S.add_fractal(mu=(0, 0, 0, 0)); b.location = (1.2, 0, 0); b.scale = (0.7,) * 3
-        scene.render.film_transparent = True
-        both = S.render_to_exr(scene, "both.exr")["ViewLayer.Combined.A"]
-        b.hide_render = True
-        one = S.render_to_exr(scene, "one.exr")["ViewLayer.Combined.A"]
-        S.report(both_left=float(both[:, :32].mean()), both_right=float(both[:, 32:].mean()),
-                 one_left=float(one[:, :32].mean()), one_right=float(one[:, 32:].mean()))
-    """)
+    r = run_bpy("engine.union_of_objects_instances_and_hidden")
     assert r["both_left"] > 0.1 and r["both_right"] > 0.1
     assert r["one_left"] == pytest.approx(r["both_left"]) and r["one_right"] == 0.0
 
 
 def test_background_world_colour_and_transparent_film(run_bpy):
-    r = run_bpy("""
-        scene = S.empty_scene(32, 24)
-        S.add_camera(scene)
-        S.add_fractal(mu=(0, 0, 0, 0))
-        world = bpy.data.worlds.new("W")
-        world.use_nodes = True
-        bg = world.node_tree.nodes["Background"]
-        bg.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1.0)
-        bg.inputs["Strength"].default_value = 0.5
-        scene.world = world
-        exr = S.render_to_exr(scene, "world.exr")
-        corner = [float(exr["ViewLayer.Combined." + c][0, 0]) for c in "RGBA"]
-        scene.render.film_transparent = True
-        exr = S.render_to_exr(scene, "film.exr")
-        clear = [float(exr["ViewLayer.Combined." + c][0, 0]) for c in "RGBA"]
-        centre = float(exr["ViewLayer.Combined.A"][12, 16])
-        S.report(corner=corner, clear=clear, centre=centre)
-    """)
+    r = run_bpy("engine.background_world_colour_and_transparent_film")
     assert r["corner"] == pytest.approx([0.1, 0.2, 0.3, 1.0], abs=1e-6)
     assert r["clear"] == [0.0, 0.0, 0.0, 0.0]
     assert r["centre"] == 1.0
 
 
 def test_threads_setting_honoured(run_bpy):
-    r = run_bpy("""
-        scene = S.empty_scene(64, 64)
-        S.add_camera(scene)
-        S.add_fractal()
-        scene.render.threads_mode = 'FIXED'
-        scene.render.threads = 1
-        S.render_to_exr(scene, "t1.exr")
-        one = dict(mod.engine.LAST_STATS)
-        scene.render.threads_mode = 'AUTO'
-        S.render_to_exr(scene, "ta.exr")
-        S.report(one=one, auto=dict(mod.engine.LAST_STATS))
-    """)
+    r = run_bpy("engine.threads_setting_honoured")
     import os
     assert r["one"]["threads"] == 1
     assert r["auto"]["threads"] == min(os.cpu_count(), 4)  # 64x64 in 32-pixel tiles: 4 tiles
@@ -157,53 +53,19 @@ def test_threads_setting_honoured(run_bpy):
 
 
 def test_errors_are_reported_not_raised_inside_the_engine(run_bpy):
-    r = run_bpy("""
-        scene = S.empty_scene(32, 24)
-        S.add_camera(scene)
-        S.add_fractal()
-        scene.camera.data.type = 'PANO'
-        try:
-            bpy.ops.render.render()
-            outcome = "finished"
-        except RuntimeError as exc:
-            outcome = str(exc)
-        S.report(outcome=outcome)
-    """)
+    r = run_bpy("engine.errors_are_reported_not_raised_inside_the_engine")
     assert "only perspective and orthographic cameras are supported" in r["outcome"]
     assert "Traceback" not in r["_output"]
 
 
 def test_add_operator_and_empty_display(run_bpy):
-    r = run_bpy("""
-        scene = S.empty_scene(32, 24)
-        bpy.ops.object.unbound_fractal_add(mu=(0.0, 0.0, 0.0, 0.0))
-        ob = bpy.context.object
-        first = ob.empty_display_size
-        ob.unbound.mu = (-0.2, 0.8, 0.0, 0.0)
-        bpy.context.scene.frame_set(1)  # depsgraph update: the handler follows mu
-        S.report(kind=ob.unbound.kind, fractal=ob.unbound.is_fractal, display=ob.empty_display_type,
-                 first=first, second=ob.empty_display_size)
-    """)
+    r = run_bpy("engine.add_operator_and_empty_display")
     assert r["fractal"] and r["kind"] == "QUATERNION_JULIA" and r["display"] == "SPHERE"
     assert r["first"] == pytest.approx(1.0)
     assert r["second"] == pytest.approx(0.5 * (1 + (1 + 4 * (0.04 + 0.64) ** 0.5) ** 0.5))
 
 
 def test_setup_compositing_writes_pass_file(run_bpy):
-    r = run_bpy("""
-        import os
-        scene = S.empty_scene(32, 24)
-        S.add_camera(scene)
-        S.add_fractal()
-        vl = scene.view_layers[0]
-        vl.unbound.use_pass_depth = True
-        vl.unbound.use_pass_normal = True
-        out = os.path.join(os.environ["UNBOUND_TEST_TMP"], "comp") + "/"
-        bpy.ops.scene.unbound_setup_compositing(directory=out)
-        scene.render.filepath = os.path.join(os.environ["UNBOUND_TEST_TMP"], "still.png")
-        bpy.ops.render.render(write_still=True)
-        files = sorted(os.listdir(out))
-        S.report(files=files, channels=sorted(S.read_exr(os.path.join(out, files[0]))))
-    """)
+    r = run_bpy("engine.setup_compositing_writes_pass_file")
     assert len(r["files"]) == 1 and r["files"][0].endswith(".exr")
     assert {"Depth.V", "Normal.X"} <= set(r["channels"]) or any("Depth" in c for c in r["channels"])
