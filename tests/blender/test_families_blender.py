@@ -10,38 +10,7 @@ KINDS = ["QUATERNION_JULIA", "QUATERNION_MANDELBROT", "JULIA_STACK", "CUBIC_LOCU
 def test_every_kind_renders_every_pass(run_bpy):
     """Each kind with soft shadows from a sun, AO, reflections on the sea, fog, glow and 2 samples:
     every pass is finite, the object is there, normals are unit vectors on it."""
-    r = run_bpy("""
-        import math
-        import numpy as np
-        from mathutils import Vector
-        out = {}
-        for kind in %r:
-            scene = S.empty_scene(48, 36)
-            S.add_camera(scene, location=(-2.6, -4.4, 2.4))
-            sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
-            sun.rotation_euler = Vector((0.5, 0.3, -0.8)).to_track_quat('-Z', 'Y').to_euler()
-            scene.collection.objects.link(sun)
-            bpy.ops.object.unbound_fractal_add(kind=kind, use_cursor=False)
-            ob = bpy.context.object
-            ob.unbound.reflectivity = 0.2
-            s = scene.unbound
-            s.samples, s.shadows, s.ao_strength, s.reflection_depth = 2, 'SOFT', 0.5, 1
-            s.fog_density, s.glow_strength, s.use_sea, s.sea_height = 0.02, 0.1, True, -1.2
-            vl = scene.view_layers[0]
-            for p in mod.passes.PASSES:
-                if p.toggle:
-                    setattr(vl.unbound, p.toggle, True)
-            scene.render.film_transparent = True
-            exr = S.render_to_exr(scene, kind + ".exr")
-            finite = all(bool(np.isfinite(v).all()) for v in exr.values())
-            obj = exr["ViewLayer.Iterations.X"] > 0
-            n = np.stack([exr["ViewLayer.Normal." + c] for c in "XYZ"], -1)
-            out[kind] = dict(finite=finite, coverage=float(obj.mean()),
-                             normal_error=float(np.abs(np.linalg.norm(n[obj], axis=-1) - 1).max()),
-                             passes=len(exr), display=ob.empty_display_size,
-                             channels=sum(p.channels for p in mod.passes.PASSES))
-        S.report(out=out)
-    """ % KINDS, timeout=600)
+    r = run_bpy("families.every_kind_renders_every_pass", args=dict(kinds=KINDS), timeout=600)
     for kind, v in r["out"].items():
         assert v["finite"], kind
         assert 0.02 < v["coverage"] < 0.9, (kind, v)
@@ -53,36 +22,7 @@ def test_every_kind_renders_every_pass(run_bpy):
 def test_kind_parameters_are_keyframeable(run_bpy):
     """A keyframe on each kind's own parameters changes the frame between the keys, and
     re-rendering a frame gives the same pixels."""
-    r = run_bpy("""
-        import numpy as np
-        changes = {}
-        for kind, path, index, a, b in [("JULIA_STACK", "c_start", 1, 0.0, 0.4),
-                                        ("CUBIC_LOCUS", "extent", -1, 2.0, 1.2),
-                                        ("QUATERNION_MANDELBROT", "slice_offset", -1, 0.0, 0.6),
-                                        ("IFS", "ifs_maps[0].location", 0, 0.5, 0.8),
-                                        ("IFS", "ifs_depth", -1, 4, 2)]:
-            scene = S.empty_scene(40, 30)
-            S.add_camera(scene, location=(-2.6, -4.4, 2.4))
-            bpy.ops.object.unbound_fractal_add(kind=kind, use_cursor=False)
-            ob = bpy.context.object
-            owner, prop = (ob.unbound.ifs_maps[0], "location") if "." in path else (ob.unbound, path)
-            def set_value(v):
-                if index < 0:
-                    setattr(owner, prop, v)
-                else:
-                    getattr(owner, prop)[index] = v
-            set_value(a)
-            ob.keyframe_insert("unbound." + path, index=index, frame=1)
-            set_value(b)
-            ob.keyframe_insert("unbound." + path, index=index, frame=3)
-            scene.view_layers[0].unbound.use_pass_depth = True
-            depth = []
-            for f in (1, 3, 1):
-                scene.frame_set(f)
-                depth.append(S.render_to_exr(scene, "k%d.exr" % f)["ViewLayer.Depth.Z"])
-            changes[kind + "." + path] = [float(np.mean(depth[0] != depth[1])), bool(np.array_equal(depth[0], depth[2]))]
-        S.report(changes=changes)
-    """, timeout=600)
+    r = run_bpy("families.kind_parameters_are_keyframeable", timeout=600)
     for name, (changed, same) in r["changes"].items():
         assert changed > 0.01, name
         assert same, name
@@ -91,50 +31,7 @@ def test_kind_parameters_are_keyframeable(run_bpy):
 def test_curve_path(run_bpy):
     """A two-point poly curve gives the same c-path, and so the same pixels, as the line; a Bezier
     curve is followed as Blender tessellates it; a missing or wrong path object is reported."""
-    r = run_bpy("""
-        import numpy as np
-        scene = S.empty_scene(40, 30)
-        S.add_camera(scene, location=(-2.6, -4.4, 2.4))
-        bpy.ops.object.unbound_fractal_add(kind='JULIA_STACK', use_cursor=False)
-        ob = bpy.context.object
-        ob.unbound.c_start, ob.unbound.c_end = (-1.2, 0.1), (0.2, 0.3)
-        line = S.render_to_exr(scene, "line.exr")["ViewLayer.Combined.R"]
-        curve = bpy.data.curves.new("Path", 'CURVE')
-        spline = curve.splines.new('POLY')
-        spline.points.add(1)
-        spline.points[0].co = (-1.2, 0.1, 0.0, 1.0)
-        spline.points[1].co = (0.2, 0.3, 0.0, 1.0)
-        path_ob = bpy.data.objects.new("Path", curve)
-        scene.collection.objects.link(path_ob)
-        ob.unbound.path_mode = 'CURVE'
-        ob.unbound.path_curve = path_ob
-        poly = S.render_to_exr(scene, "poly.exr")["ViewLayer.Combined.R"]
-        dg = bpy.context.evaluated_depsgraph_get()
-        from bl_ext.user_default.unbound import properties
-        bez = bpy.data.curves.new("Bez", 'CURVE')
-        bs = bez.splines.new('BEZIER')
-        bs.bezier_points.add(1)
-        for p, co in zip(bs.bezier_points, [(-1.2, 0.1, 0.0), (0.2, 0.3, 0.0)]):
-            p.co = co
-            p.handle_left_type = p.handle_right_type = 'AUTO'
-        bez_ob = bpy.data.objects.new("Bez", bez)
-        scene.collection.objects.link(bez_ob)
-        ob.unbound.path_curve = bez_ob
-        dg = bpy.context.evaluated_depsgraph_get()
-        bez_path = properties.c_path(ob.unbound, dg)
-        bezier = S.render_to_exr(scene, "bez.exr")["ViewLayer.Combined.R"]
-        errors = []
-        for target in (None, scene.camera):
-            ob.unbound.path_curve = target
-            try:
-                bpy.ops.render.render()
-                errors.append("finished")
-            except RuntimeError as exc:
-                errors.append(str(exc))
-        S.report(same=bool(np.array_equal(line, poly)), coverage=float((line > 0).mean()),
-                 bez_points=len(bez_path), bez_ends=[bez_path[0], bez_path[-1]],
-                 bez_differs=bool(not np.array_equal(line, bezier)), errors=errors)
-    """)
+    r = run_bpy("families.curve_path")
     assert r["same"] and r["coverage"] > 0.05
     assert r["bez_points"] > 2
     np.testing.assert_allclose(r["bez_ends"], [(-1.2, 0.1), (0.2, 0.3)], atol=1e-6)
@@ -146,39 +43,7 @@ def test_curve_path(run_bpy):
 def test_ifs_map_operators_presets_and_errors(run_bpy):
     """The shape, add and remove operators edit the maps; a saved preset restores the maps (a
     collection) on another IFS; an IFS without maps is reported, not raised."""
-    r = run_bpy("""
-        import os
-        scene = S.empty_scene(32, 24)
-        S.add_camera(scene, location=(-2.6, -4.4, 2.4))
-        bpy.ops.object.unbound_fractal_add(kind='IFS', use_cursor=False)
-        u = bpy.context.object.unbound
-        counts = [len(u.ifs_maps)]
-        bpy.ops.object.unbound_ifs_shape(shape='MENGER')
-        counts.append(len(u.ifs_maps))
-        bpy.ops.object.unbound_ifs_map_add()
-        counts.append(len(u.ifs_maps))
-        u.ifs_maps[-1].location = (0.1, 0.2, 0.3)
-        u.ifs_maps[-1].scale = (0.2, 0.25, -0.3)
-        saved = [tuple(m.location) + tuple(m.rotation) + tuple(m.scale) for m in u.ifs_maps]
-        status = bpy.ops.unbound.fractal_preset_add(name="My IFS")
-        folder = bpy.utils.preset_paths("unbound/fractal")[-1]
-        bpy.ops.object.unbound_fractal_add(kind='IFS', use_cursor=False)
-        v = bpy.context.object.unbound
-        run = bpy.ops.script.execute_preset(filepath=os.path.join(folder, "My_IFS.py"),
-                                            menu_idname="UNBOUND_MT_fractal_presets")
-        restored = [tuple(m.location) + tuple(m.rotation) + tuple(m.scale) for m in v.ifs_maps]
-        bpy.ops.object.unbound_ifs_map_remove()
-        bpy.ops.object.unbound_ifs_shape(shape='KOCH')
-        counts.append(len(v.ifs_maps))
-        while len(v.ifs_maps):
-            bpy.ops.object.unbound_ifs_map_remove()
-        try:
-            bpy.ops.render.render()
-            outcome = "finished"
-        except RuntimeError as exc:
-            outcome = str(exc)
-        S.report(counts=counts, outcome=outcome, saved=saved, restored=restored, ops=sorted(status) + sorted(run))
-    """)
+    r = run_bpy("families.ifs_map_operators_presets_and_errors")
     assert r["counts"] == [4, 20, 21, 4]
     assert r["ops"] == ["FINISHED", "FINISHED"]
     np.testing.assert_allclose(r["restored"], r["saved"], atol=1e-6)
