@@ -73,44 +73,6 @@ CASES = {
     "scaled_camera_object": ((0.3, -2.6, 1.1), dict(lens=40.0), (2.0, 0.5, 1.5), {}),
 }
 
-SCRIPT = """
-import numpy as np
-camera_location, camera_data, camera_scale, render_settings = {case!r}
-scene = S.empty_scene(96, 72, "CYCLES")
-cam = S.add_camera(scene, location=camera_location, **camera_data)
-if camera_scale:
-    cam.scale = camera_scale  # Blender's engines ignore the camera object's scale
-for key, value in render_settings.items():
-    setattr(scene.render, key, value)
-scene.render.film_transparent = True
-view_layer = scene.view_layers[0]
-
-# Cycles: CPU, a few samples, no denoising, a 0.01-pixel filter (crisp edges), the Depth pass.
-scene.cycles.device = 'CPU'
-scene.cycles.samples = 4
-scene.cycles.use_denoising = False
-scene.cycles.filter_width = 0.01
-view_layer.use_pass_z = True
-bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
-sphere = bpy.context.object
-bpy.ops.object.shade_smooth()
-out = {{}}
-for label, scale in (("cycles", 1.0), ("inner", 1.0 - {band!r}), ("outer", 1.0 + {band!r})):
-    sphere.scale = (scale, scale, scale)
-    px = S.render_to_exr(scene, label + ".exr")
-    out[label + "_alpha"], out[label + "_depth"] = px["ViewLayer.Combined.A"], px["ViewLayer.Depth.Z"]
-
-# Unbound: the unit ball, a fixed hit threshold well below the mesh's error.
-sphere.hide_render = True
-scene.render.engine = 'UNBOUND'
-S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
-view_layer.unbound.use_pass_depth = True
-px = S.render_to_exr(scene, "unbound.exr")
-out["unbound_alpha"], out["unbound_depth"] = px["ViewLayer.Combined.A"], px["ViewLayer.Depth.Z"]
-np.savez(S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / "renders.npz", **out)
-S.report(done=True)
-"""
-
 
 def erode(mask, pixels):
     for _ in range(pixels):
@@ -125,7 +87,8 @@ def pixels(mask, limit=8):
 
 @pytest.mark.parametrize("case", CASES, ids=list(CASES))
 def test_unbound_matches_cycles(run_bpy, tmp_path, case):
-    assert run_bpy(SCRIPT.format(case=CASES[case], band=BAND), timeout=240).get("done")
+    assert run_bpy("camera_exactness.unbound_matches_cycles", args=dict(case=CASES[case], band=BAND),
+                   timeout=240).get("done")
     px = dict(np.load(tmp_path / "renders.npz"))
 
     # 1. Same output size (the cropped border, or the full frame) for every render.
