@@ -83,32 +83,8 @@ def test_keyframed_mu_reaches_each_frame(animation, run_bpy):
     """Frame k of the animation equals, bit for bit, a single-frame render of the same scene with
     mu set (not keyframed) to the value the F-curves give at frame k."""
     out, _ = animation
-    r = run_bpy("""
-        import importlib.util, math, os
-        spec = importlib.util.spec_from_file_location("animate_mu", %r)
-        A = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(A)
-        A.ensure_extension(%r)
-        scene, ob = A.build_scene(%d, %d)
-        frames = list(range(%d, %d + 1))
-        mus = {}
-        for k in frames + [1 + A.LOOP_FRAMES, 1 + A.LOOP_FRAMES // 16]:
-            scene.frame_set(k)
-            mus[k] = list(ob.unbound.mu)
-        key0 = list(A.mu_on_path(0.0))
-        mid = A.mu_on_path(1.0 / 16)  # halfway between two keyframes
-        ob.animation_data_clear()
-        singles = {}
-        for k in frames:
-            scene.frame_set(k)
-            ob.unbound.mu = mus[k]
-            assert list(ob.unbound.mu) == mus[k]
-            A.set_format(scene, 'EXR')
-            scene.render.filepath = os.path.join(os.environ["UNBOUND_TEST_TMP"], "single_%%d.exr" %% k)
-            bpy.ops.render.render(write_still=True)
-            singles[k] = scene.render.filepath
-        S.report(mus=mus, key0=key0, mid=mid, singles=singles, loop=A.LOOP_FRAMES)
-    """ % (str(EXAMPLE), str(extension_zip()), SIZE[0], SIZE[1], FRAMES[0], FRAMES[1]), install=False)
+    r = run_bpy("examples_animation.keyframed_mu_reaches_each_frame", install=False,
+                args=dict(example=str(EXAMPLE), extension=str(extension_zip()), size=SIZE, frame_range=FRAMES))
     mus = {int(k): np.array(v) for k, v in r["mus"].items()}
     frames = range(FRAMES[0], FRAMES[1] + 1)
     # The F-curves: frame 1 is the first key, the loop closes, and between keys mu stays on the path.
