@@ -4,38 +4,9 @@ farm machines would. Every pass of every frame must have the same bits."""
 import numpy as np
 from exr import read_exr
 
-SCENE = """
-scene = S.empty_scene(48, 36)
-S.add_camera(scene)
-ob = S.add_fractal(mu=(-0.2, 0.8, 0.0, 0.0))
-ob.keyframe_insert("unbound.mu", frame=1)
-ob.unbound.mu = (-0.5, 0.5, 0.1, 0.0)
-ob.keyframe_insert("unbound.mu", frame=4)
-ob.unbound.reflectivity = 0.3
-scene.unbound.shadows = 'SOFT'
-scene.unbound.reflection_depth = 2
-scene.unbound.ao_strength = 0.5
-scene.unbound.samples = 2
-scene.unbound.use_sea = True
-scene.unbound.sea_height = -1.2
-layer = scene.view_layers[0].unbound
-for name in ("depth", "normal", "position", "iterations", "shadow", "reflection", "ao"):
-    setattr(layer, "use_pass_" + name, True)
-S.exr_output(scene)
-scene.render.threads_mode = 'FIXED'
-"""
-
 
 def render_range(run_bpy, prefix, first, last, threads, tile):
-    r = run_bpy(SCENE + """
-import os
-scene.frame_start, scene.frame_end = %d, %d
-scene.render.threads = %d
-scene.unbound.tile_size = %d
-scene.render.filepath = os.path.join(os.environ["UNBOUND_TEST_TMP"], %r)
-bpy.ops.render.render(animation=True)
-S.report(stats=dict(mod.engine.LAST_STATS))
-""" % (first, last, threads, tile, prefix))
+    r = run_bpy("farm.render_range", args=dict(prefix=prefix, first=first, last=last, threads=threads, tile=tile))
     assert r["stats"]["threads"] == threads, r["stats"]
     return r
 
