@@ -7,7 +7,6 @@ import os
 import pathlib
 import subprocess
 import sys
-import textwrap
 
 import pytest
 from exr import extension_zip
@@ -30,8 +29,13 @@ def check_script(ref, args):
     params = functions[name].args
     names = [a.arg for a in params.posonlyargs + params.args + params.kwonlyargs]
     assert names[:2] == ["S", "mod"], "%s must take (S, mod, ...): %s" % (ref, names)
-    missing = set(args) - set(names[2:])
-    assert params.kwarg or not missing, "%s takes no argument %s" % (ref, sorted(missing))
+    unknown = set(args) - set(names[2:])
+    assert params.kwarg or not unknown, "%s takes no argument %s" % (ref, sorted(unknown))
+    positional = params.posonlyargs + params.args
+    required = [a.arg for a in positional[2:len(positional) - len(params.defaults)]]
+    required += [a.arg for a, d in zip(params.kwonlyargs, params.kw_defaults) if d is None]
+    missing = set(required) - set(args)
+    assert not missing, "%s needs the arguments %s" % (ref, sorted(missing))
     text = json.dumps(args)
     assert json.loads(text) == as_lists(args), "arguments JSON would change: %r" % (args,)
     return text
@@ -56,16 +60,8 @@ def run_bpy(tmp_path):
     def run(ref, args=None, timeout=300, install=True, python=None, env=None, expect_rc=0):
         user = tmp_path / "user"
         (user / "config").mkdir(parents=True, exist_ok=True)
-        if "\n" in ref:  # TRANSITIONAL: a code string, run after the old header
-            header = "import os\nimport sys\nsys.path.insert(0, %r)\nimport bpy_session as S\nimport bpy\n" % str(HERE)
-            if install:
-                header += "mod = S.install_extension(%r)\n" % str(extension_zip())
-            script = tmp_path / "script.py"
-            script.write_text(header + textwrap.dedent(ref))
-            cmd = [python or sys.executable, str(script)]
-        else:
-            cmd = [python or sys.executable, str(HERE / "bpy_main.py"), ref, check_script(ref, args or {}),
-                   str(extension_zip()) if install else ""]
+        cmd = [python or sys.executable, str(HERE / "bpy_main.py"), ref, check_script(ref, args or {}),
+               str(extension_zip()) if install else ""]
         full_env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), UNBOUND_TEST_TMP=str(tmp_path))
         full_env.update(env or {})
         proc = subprocess.run(cmd, cwd=tmp_path, env=full_env, capture_output=True, text=True, timeout=timeout)
