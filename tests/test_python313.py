@@ -31,8 +31,7 @@ def test_native_suite_under_python313(chroot):
     assert wheels, "build the wheel first (make wheel)"
     wheel = os.path.relpath(wheels[-1], ROOT)
     run = chroot(f"/opt/venv/bin/pip install -q --no-index --force-reinstall --no-deps {wheel} && "
-                 "/opt/venv/bin/python -c 'import sys, unbound_core; assert sys.version_info[:2] == (3, 13); "
-                 "print(sys.version.split()[0], unbound_core._native.__file__)' && "
+                 "/opt/venv/bin/python tests/python313_probe.py core && "
                  "/opt/venv/bin/pip uninstall -q -y unbound-core && "
                  "/opt/venv/bin/python -m pytest -q -p no:cacheprovider tests/native")
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
@@ -41,7 +40,7 @@ def test_native_suite_under_python313(chroot):
 
 
 def test_engine_suite_under_bpy52(chroot):
-    run = chroot("/opt/venv/bin/python -c 'import bpy; print(\"bpy\", bpy.app.version_string)' && "
+    run = chroot("/opt/venv/bin/python tests/python313_probe.py bpy && "
                  "/opt/venv/bin/python -m pytest -q -p no:cacheprovider tests/blender/test_engine.py "
                  "tests/blender/test_shading_blender.py")
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
