@@ -22,10 +22,13 @@ def passes_reach_compositor_and_exr(S, mod):
     import unbound_core
     from bl_ext.user_default.unbound import engine
     dg = bpy.context.evaluated_depsgraph_get()
+
     class Cam:  # the camera description needs only these two engine methods
         camera_override = None
+
         def camera_model_matrix(self, ob, use_spherical_stereo=False):
             return ob.matrix_world
+
     cam = engine.camera_description(Cam(), dg, 80, 60)
     bufs = {n: np.empty((60, 80, c), np.float32) for n, c in unbound_core.PASS_CHANNELS.items()}
     unbound_core.render(cam, engine.fractal_objects(dg), bufs)
@@ -76,8 +79,12 @@ def keyframes_and_drivers_reach_the_render(S, mod):
 def union_of_objects_instances_and_hidden(S, mod):
     scene = S.empty_scene(64, 48)
     S.add_camera(scene, location=(0, -5, 0))
-    a = S.add_fractal(mu=(0, 0, 0, 0)); a.location = (-1.2, 0, 0); a.scale = (0.7,) * 3
-    b = S.add_fractal(mu=(0, 0, 0, 0)); b.location = (1.2, 0, 0); b.scale = (0.7,) * 3
+    a = S.add_fractal(mu=(0, 0, 0, 0))
+    a.location = (-1.2, 0, 0)
+    a.scale = (0.7,) * 3
+    b = S.add_fractal(mu=(0, 0, 0, 0))
+    b.location = (1.2, 0, 0)
+    b.scale = (0.7,) * 3
     scene.render.film_transparent = True
     both = S.render_to_exr(scene, "both.exr")["ViewLayer.Combined.A"]
     b.hide_render = True

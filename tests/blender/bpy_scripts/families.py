@@ -48,11 +48,13 @@ def kind_parameters_are_keyframeable(S, mod):
         bpy.ops.object.unbound_fractal_add(kind=kind, use_cursor=False)
         ob = bpy.context.object
         owner, prop = (ob.unbound.ifs_maps[0], "location") if "." in path else (ob.unbound, path)
+
         def set_value(v):
             if index < 0:
                 setattr(owner, prop, v)
             else:
                 getattr(owner, prop)[index] = v
+
         set_value(a)
         ob.keyframe_insert("unbound." + path, index=index, frame=1)
         set_value(b)

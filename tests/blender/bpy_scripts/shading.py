@@ -207,11 +207,13 @@ def light_power_colour_and_shadow_switch(S, mod):
     specs = {'SUN': ((2.0, -1.5, 3.0), 2.0), 'POINT': ((2.0, -2.0, 2.0), 400.0),
              'SPOT': ((-1.5, -2.5, 2.0), 600.0), 'AREA': ((2.5, -3.0, 2.0), 800.0)}
     out = {}
+
     def shot(tag):
         exr = S.render_to_exr(scene, tag + ".exr")
         out[tag] = np.stack([exr["ViewLayer.Diffuse." + c] for c in "RGB"], -1)
         out[tag + "_shadow"] = exr["ViewLayer.Shadow.X"]
         out[tag + "_alpha"] = exr["ViewLayer.Combined.A"]
+
     for kind, (location, energy) in specs.items():
         data = bpy.data.lights.new(kind, kind)
         data.energy = energy
@@ -244,12 +246,14 @@ def more_than_64_lights_is_reported_not_raised(S, mod):
     S.add_camera(scene)
     S.add_fractal()
     lights = []
+
     def render():
         mod.engine.LAST_STATS.clear()
         try:
             return sorted(bpy.ops.render.render()), dict(mod.engine.LAST_STATS)
         except RuntimeError as exc:
             return str(exc), dict(mod.engine.LAST_STATS)
+
     for i in range(65):
         data = bpy.data.lights.new("L%d" % i, 'POINT')
         data.energy = 10.0

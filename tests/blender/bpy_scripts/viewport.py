@@ -100,6 +100,7 @@ def any_change_restarts_and_stale_work_is_cancelled_at_once(S, mod):
         raise RuntimeError("no frame")
 
     changes = []
+
     def change(label, fn):
         changes.append((label, until_refining()))
         fn()
