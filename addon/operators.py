@@ -148,7 +148,7 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
             set_ifs_maps(props, 'SIERPINSKI')
         elif self.kind in {'QUATERNION_MANDELBROT', 'CUBIC_LOCUS'}:
             props.max_iterations = 24
-        ob.empty_display_size = display_radius(props) or 2.0
+        ob.empty_display_size = display_radius(ob) or 2.0
         ob.location = context.scene.cursor.location if self.use_cursor else self.location
         collection = context.collection or context.scene.collection
         collection.objects.link(ob)

@@ -6,9 +6,8 @@ import math
 import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty)
-from mathutils import Euler, Matrix
 
-from . import passes, utils
+from . import export, passes, utils
 
 # Section 5: the paper's other families. "Exact": the distance estimate never oversteps the set
 # (proven); "empirical": no such proof exists, so Unbound marches them with half steps, a step cap
@@ -75,26 +74,19 @@ SIMD_MODES = [
 ]
 
 
-def bounding_radius(mu):
-    """Radius of a ball that contains K_mu (section 3.4): |z| > R with R^2 - R - |mu| = 0 escapes."""
-    return 0.5 * (1.0 + math.sqrt(1.0 + 4.0 * math.sqrt(sum(c * c for c in mu))))
-
-
-def display_radius(props, depsgraph=None):
-    """Radius around the object's origin of a sphere holding its set: the native core's bounding
-    ball; None while the settings are invalid (the render then reports why)."""
-    if props.kind == 'QUATERNION_JULIA':
-        return bounding_radius(props.mu)
+def display_radius(ob, depsgraph=None):
+    """Radius around the object's origin of a sphere holding its set: the core's bounding ball
+    (describe()); None while the settings are invalid (the render then reports why)."""
     try:
-        bound = utils.native().describe(native_parameters(props, depsgraph, with_ramp=False))
-    except (ImportError, ValueError, TypeError):
+        bound = utils.native().describe(export.object_parameters(ob, depsgraph, with_ramp=False))
+    except (ImportError, ValueError, TypeError, export.RenderError):
         return None
     return math.sqrt(sum(c * c for c in bound["bound_center"])) + max(bound["bound_radius"], 0.0)
 
 
 def _sync_display_size(ob):
     if utils.is_fractal(ob) and not ob.library:
-        radius = display_radius(ob.unbound)
+        radius = display_radius(ob)
         if radius is not None and abs(ob.empty_display_size - radius) > 1e-6:
             ob.empty_display_size = radius
 
@@ -121,21 +113,6 @@ HANDLERS = ((bpy.app.handlers.depsgraph_update_post, sync_updated_objects),
             (bpy.app.handlers.frame_change_post, sync_all_objects))
 
 
-def slice_frame(offset, rotation):
-    """Slice map of object space into the quaternions: the 1-i-j space at k = offset, turned
-    toward the k axis by rotation (angles in the 1-k, i-k and j-k planes, applied in that order).
-    Returns (basis 4x3 as rows, origin 4)."""
-    frame = [[1.0 if r == c else 0.0 for c in range(4)] for r in range(4)]  # columns: 1, i, j, k
-    for axis, angle in enumerate(rotation):
-        c, s = math.cos(angle), math.sin(angle)
-        for r in range(4):
-            a, k = frame[r][axis], frame[r][3]
-            frame[r][axis], frame[r][3] = c * a - s * k, s * a + c * k
-    basis = [row[:3] for row in frame]
-    origin = [offset * frame[r][3] for r in range(4)]
-    return basis, origin
-
-
 class UnboundIFSMap(bpy.types.PropertyGroup):
     """One affine map x -> T R S x of an IFS: scale, then rotate, then move"""
     location: FloatVectorProperty(name="Location", description="Where the map moves the origin, in object units",
@@ -145,12 +122,6 @@ class UnboundIFSMap(bpy.types.PropertyGroup):
     scale: FloatVectorProperty(name="Scale", description="Contraction along each axis; negative mirrors, and "
                                "every factor stays below 1 so the map contracts", size=3, default=(0.5, 0.5, 0.5),
                                min=-0.99, max=0.99, subtype='XYZ')
-
-
-def ifs_map_rows(m):
-    """The native core's 3x4 rows [A | t] of an IFS map."""
-    matrix = Matrix.LocRotScale(m.location, Euler(m.rotation, 'XYZ'), m.scale)
-    return [list(matrix[r]) for r in range(3)]
 
 
 class UnboundObjectSettings(bpy.types.PropertyGroup):
@@ -210,7 +181,7 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
     bisection_steps: IntProperty(name="Refinement", description="Bisection steps that refine each hit",
                                  default=10, min=0, max=64)
     color: FloatVectorProperty(name="Color", description="Surface colour", subtype='COLOR', size=3,
-                               default=(0.8, 0.8, 0.8), min=0.0, soft_max=1.0)
+                               default=(0.8, 0.8, 0.8), min=0.0, max=1e6, soft_max=1.0)
     # Shading (section 4 of the paper)
     normal_method: EnumProperty(name="Normals", description="How surface normals are approximated "
                                 "(section 4.1)", items=NORMAL_METHODS, default='GRADIENT_DISTANCE')
@@ -235,7 +206,7 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
 
 class UnboundSceneSettings(bpy.types.PropertyGroup):
     tile_size: IntProperty(name="Tile Size", description="Side of the square tiles handed to render threads",
-                           default=32, min=4, max=1024)
+                           default=32, min=1, max=4096, soft_min=4, soft_max=1024)
     samples: IntProperty(name="Samples", description="Anti-aliasing samples per pixel (stratified, the same "
                          "on every machine)", default=1, min=1, max=4096, soft_max=64)
     # Lighting
@@ -295,75 +266,6 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
     viewport_time_limit: FloatProperty(name="Time Limit", description="Stop refining the viewport after this "
                                        "many seconds (0: no limit)", default=0.0, min=0.0, max=86400.0,
                                        soft_max=60.0, unit='TIME_ABSOLUTE')
-
-
-def native_parameters(props, depsgraph=None, with_ramp=True):
-    """The native core's object dict for fractal settings `props` (without the world matrix). A curve
-    c-path is read from the evaluated curve when a depsgraph is given, else its control points.
-    (A module function: a method on a registered PropertyGroup makes bpy 4.2 crash at exit.)"""
-    basis, origin = slice_frame(props.slice_offset, props.slice_rotation)
-    out = dict(
-        kind=props.kind.lower(), mu=tuple(props.mu), theta=props.theta, slice_basis=basis,
-        slice_origin=origin, max_iterations=props.max_iterations,
-        bailout=props.bailout, epsilon_mode=props.threshold_mode.lower(), epsilon=props.epsilon,
-        detail=props.detail, step_factor=props.step_factor, max_step=props.max_step, max_steps=props.max_steps,
-        bisection_steps=props.bisection_steps, color=tuple(props.color),
-        normal_method=props.normal_method.lower(), normal_alpha=props.normal_alpha,
-        normal_delta=props.normal_delta, reflectivity=props.reflectivity, color_mode=props.color_mode.lower(),
-        color_ramp=ramp_table(props.color_ramp_texture) if with_ramp and props.color_mode != 'BASE' else None,
-        ramp_scale=props.ramp_scale, ramp_offset=props.ramp_offset)
-    if props.kind == 'JULIA_STACK':
-        out.update(path=c_path(props, depsgraph), stack_height=props.stack_height)
-    elif props.kind == 'CUBIC_LOCUS':
-        out.update(cubic_component=props.cubic_component.lower(), extent=props.extent)
-    elif props.kind == 'IFS':
-        if not len(props.ifs_maps):
-            raise ValueError("an IFS needs at least one map: add one, or pick a preset")
-        out.update(maps=[ifs_map_rows(m) for m in props.ifs_maps], ifs_depth=props.ifs_depth)
-    return out
-
-
-PATH_POINTS = 256  # the native core's limit on c-path points
-
-
-def c_path(props, depsgraph=None):
-    """Points (Re c, Im c) of a Julia stack's path, bottom to top."""
-    if props.path_mode == 'LINE':
-        return [tuple(props.c_start), tuple(props.c_end)]
-    curve = props.path_curve
-    if curve is None:
-        raise ValueError("the Julia stack's c-path is a curve, but no curve object is set")
-    if curve.type != 'CURVE':
-        raise ValueError("the Julia stack's c-path object '%s' is not a curve" % curve.name)
-    if depsgraph is not None:
-        # The evaluated curve (resolution, modifiers, animation) as Blender tessellates it.
-        evaluated = curve.evaluated_get(depsgraph)
-        mesh = evaluated.to_mesh()
-        try:
-            points = [(v.co.x, v.co.y) for v in mesh.vertices]
-        finally:
-            evaluated.to_mesh_clear()
-    else:
-        points = [(p.co.x, p.co.y) for spline in curve.data.splines
-                  for p in (spline.bezier_points if spline.type == 'BEZIER' else spline.points)]
-    if not points:
-        raise ValueError("the c-path curve '%s' has no points" % curve.name)
-    if len(points) > PATH_POINTS:
-        step = (len(points) - 1) / (PATH_POINTS - 1)
-        points = [points[round(i * step)] for i in range(PATH_POINTS)]
-    return points
-
-
-RAMP_SIZE = 64
-
-
-def ramp_table(texture):
-    """Colours of a texture's colour ramp sampled uniformly (Blender evaluates its own ramp:
-    interpolation, colour mode and keyframed stops included); None without a ramp."""
-    if texture is None or not texture.use_color_ramp:
-        return None
-    ramp = texture.color_ramp
-    return [tuple(ramp.evaluate(i / (RAMP_SIZE - 1)))[:3] for i in range(RAMP_SIZE)]
 
 
 def _pass_toggle(p):

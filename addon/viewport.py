@@ -21,8 +21,7 @@ import weakref
 
 import numpy as np
 
-from . import engine as final
-from . import utils
+from . import export, utils
 
 # How often the core checks for cancellation while a refinement step runs (seconds).
 POLL_INTERVAL = 0.004
@@ -45,13 +44,13 @@ def scene_part(depsgraph):
     scene = depsgraph.scene
     s = scene.unbound
     try:
-        objects = final.fractal_objects(depsgraph, original=True)
-        shading = dict(final.shading_description(depsgraph), samples=s.viewport_samples)
-    except (final.RenderError, ImportError, ValueError, TypeError) as exc:
+        objects = export.fractal_objects(depsgraph, original=True)
+        shading = export.shading_description(depsgraph, samples=s.viewport_samples)
+    except (export.RenderError, ImportError, ValueError, TypeError) as exc:
         return dict(objects=None, shading=None, error=str(exc))
-    return dict(objects=objects, shading=shading, background=final.background(scene),
-                threads=final.thread_count(scene), tile_size=s.tile_size, simd=s.simd.lower(),
-                start_divisor=int(s.viewport_start_divisor), time_limit=s.viewport_time_limit, error=None)
+    # The core checks the values when it renders them, and its messages name the object.
+    return dict(objects=objects, shading=shading, start_divisor=int(s.viewport_start_divisor),
+                time_limit=s.viewport_time_limit, error=None, **export.render_options(scene))
 
 
 def view_part(context, depsgraph):
@@ -65,7 +64,7 @@ def view_part(context, depsgraph):
     window = (0, 0, width, height)
     try:
         if rv3d.view_perspective == 'CAMERA':
-            cam_ob = final.evaluated_camera(v3d.camera if v3d.use_local_camera and v3d.camera else scene.camera,
+            cam_ob = export.evaluated_camera(v3d.camera if v3d.use_local_camera and v3d.camera else scene.camera,
                                            depsgraph)
             near, far = cam_ob.data.clip_start, cam_ob.data.clip_end
             if scene.render.use_border:
@@ -85,8 +84,8 @@ def view_part(context, depsgraph):
                 window = border_window((0.0, 0.0, width, height),
                                        (v3d.render_border_min_x, v3d.render_border_min_y,
                                         v3d.render_border_max_x, v3d.render_border_max_y), width, height)
-        camera = final.native_camera(matrix, rv3d.window_matrix, rv3d.is_perspective, near, far, width, height)
-    except final.RenderError as exc:
+        camera = export.native_camera(matrix, rv3d.window_matrix, rv3d.is_perspective, near, far, width, height)
+    except export.RenderError as exc:
         return dict(camera=None, window=None, error=str(exc))
     return dict(camera=camera, window=window, error=None)
 

@@ -75,7 +75,8 @@ SOFT_SUN = dict(SUN, radius=math.tan(math.radians(2.0)))  # sun: radius = tan(an
 
 # The sea: below the whole object (its lowest visible point is at z ~ -0.92, bound radius 1.54),
 # so it hides nothing of the set and the set is mirrored in it.
-SEA = dict(height=-1.0, wavelength=0.25, amplitude=0.01, color=(0.1, 0.25, 0.4), reflectivity=0.5)
+SEA = dict(use_sea=True, sea_height=-1.0, sea_wavelength=0.25, sea_amplitude=0.01, sea_color=(0.1, 0.25, 0.4),
+           sea_reflectivity=0.5)
 
 AMBIENT = (0.3, 0.3, 0.3)
 
@@ -87,8 +88,8 @@ CASES = [
     # AO only shows through the ambient light (albedo * ambient * AO); the core computes it either way.
     ("ao", "+ AO (strength 1, 5 samples, ambient 0.3)", {},
      dict(ao_strength=1.0, ao_samples=5, ao_distance=0.5, ambient=AMBIENT)),
-    ("reflect", "+ reflections 0.3, depth 2 (+ sea)", dict(reflectivity=0.3), dict(reflection_depth=2, sea=SEA)),
-    ("sea", "+ sea", {}, dict(sea=SEA)),
+    ("reflect", "+ reflections 0.3, depth 2 (+ sea)", dict(reflectivity=0.3), dict(reflection_depth=2, **SEA)),
+    ("sea", "+ sea", {}, dict(SEA)),
     ("fog", "+ fog (density 0.2)", {}, dict(fog_density=0.2, fog_color=(0.5, 0.55, 0.6))),
     ("glow", "+ glow (strength 0.5)", {}, dict(glow_strength=0.5, glow_color=(1.0, 0.6, 0.3))),
     ("samples4", "+ samples 4", {}, dict(samples=4)),
@@ -97,7 +98,7 @@ CASES = [
     ("n_analytic", "normals analytic", dict(normal_method="analytic"), {}),
     ("all", "everything (soft, AO, refl+sea, fog, glow, 4 spp)", dict(reflectivity=0.3),
      dict(shadows="soft", lights=[SOFT_SUN], ao_strength=1.0, ao_samples=5, ao_distance=0.5, ambient=AMBIENT,
-          reflection_depth=2, sea=SEA, fog_density=0.2, fog_color=(0.5, 0.55, 0.6), glow_strength=0.5,
+          reflection_depth=2, **SEA, fog_density=0.2, fog_color=(0.5, 0.55, 0.6), glow_strength=0.5,
           glow_color=(1.0, 0.6, 0.3), samples=4)),
 ]
 PASSES = ("combined", "alpha", "depth")

@@ -88,7 +88,7 @@ def run(viewport, engine, scene, ob, repeats):
         t0 = time.perf_counter()
         dg = bpy.context.evaluated_depsgraph_get()
         cam = scene.camera.evaluated_get(dg)
-        view = dict(camera=engine.camera_dict(dg, cam, cam.matrix_world, width, height),
+        view = dict(camera=sys.modules[engine.__package__ + ".export"].camera_dict(dg, cam, cam.matrix_world, width, height),
                     window=(0, 0, width, height), error=None)
         session.update(viewport.request(viewport.scene_part(dg), view))
         final = session.wait(600)

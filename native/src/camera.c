@@ -1,7 +1,9 @@
 /* Camera rays from Blender's camera description: camera matrix and projection matrix. */
+#include "params.h"
 #include "scene.h"
 
 #include <math.h>
+#include <string.h>
 
 static int invert4(const double m[4][4], double out[4][4])
 {
@@ -128,4 +130,17 @@ void ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3],
         dir[r] = row[0] * dv[0] + row[1] * dv[1] + row[2] * dv[2];
         origin[r] = row[0] * ov[0] + row[1] * ov[1] + row[2] * ov[2] + row[3];
     }
+}
+
+const char *ub_camera_from_input(ub_camera *cam, const ub_camera_input *in)
+{
+    memset(cam, 0, sizeof *cam);
+    cam->width = in->width;
+    cam->height = in->height;
+    return ub_camera_prepare(cam, in->matrix, in->projection);
+}
+
+double ub_pixel_footprint(const ub_camera *cam, double t)
+{
+    return cam->footprint0 + cam->footprint1 * t;
 }

@@ -3,7 +3,7 @@
 
 /* Natural logarithm of positive normal floats (Cephes' logf polynomial, ~1 ulp). Our own,
  * built only from the interface's correctly rounded operations, so both kernels agree. */
-static inline vf UB_FN(v_log)(vf x)
+static inline vf v_log(vf x)
 {
     vf m, e;
     v_frexp_centered(x, &m, &e);
@@ -33,9 +33,9 @@ typedef struct {
     int max_iterations;
     /* Hit threshold in world units at ray distance t: eps0 + eps1 * t (fixed mode: eps1 = 0). */
     vf eps0, eps1;
-} UB_FN(ub_de_params);
+} ub_de_params;
 
-static inline void UB_FN(de_params)(const ub_object *o, const ub_camera *cam, UB_FN(ub_de_params) *p)
+static inline void de_params(const ub_object *o, const ub_camera *cam, ub_de_params *p)
 {
     p->obj = o;
     for (int i = 0; i < 4; i++)
@@ -59,13 +59,13 @@ typedef struct {
     vf trap;       /* min |z_k| over the orbit, k = 0..n */
     vf potential;  /* G = log|z_n| / 2^n (0 where the orbit does not escape) */
     vf normal[3];  /* object-space gradient of |z_n|^2: z_n . dz_n/dx_axis (unnormalised) */
-} UB_FN(ub_de_extra);
+} ub_de_extra;
 
 /* The bookkeeping every escape-time iteration shares, after computing the next |z|^2 (nr2):
  * lanes still iterating take it, the orbit trap and the potential's scale follow (gstep: 1 /
  * degree), the escape count grows, and lanes past the escape radius stop. Returns the lanes
  * still iterating. */
-static inline vm UB_FN(orbit_step)(const UB_FN(ub_de_params) *p, const int want, vm active, vf nr2, vf *r2, vf *n,
+static inline vm orbit_step(const ub_de_params *p, const int want, vm active, vf nr2, vf *r2, vf *n,
                                    vf *trap, vf *gscale, vf gstep)
 {
     *r2 = v_select(active, nr2, *r2);
@@ -83,8 +83,8 @@ static inline vm UB_FN(orbit_step)(const UB_FN(ub_de_params) *p, const int want,
  * of section 4.1.2 and the Jacobian of f^n along the three slice axes. d(z q)/dx = z dq + dq z
  * for f = z^2 (plus dmu/dx for Mandelbrot), and for z = (a, v), h = (p, w):
  * zh + hz = (2(ap - v.w), 2(aw + pv)) (the cross products cancel). */
-static inline void UB_FN(de_quaternion)(const UB_FN(ub_de_params) *p, const int mandel, vf a, vf b, vf c, vf d,
-                                        const int want, vf *dist, vf *iters, UB_FN(ub_de_extra) *x)
+static inline void de_quaternion(const ub_de_params *p, const int mandel, vf a, vf b, vf c, vf d,
+                                        const int want, vf *dist, vf *iters, ub_de_extra *x)
 {
     const ub_object *o = p->obj;
     const vf mu[4] = {mandel ? a : p->mu[0], mandel ? b : p->mu[1], mandel ? c : p->mu[2], mandel ? d : p->mu[3]};
@@ -146,7 +146,7 @@ static inline void UB_FN(de_quaternion)(const UB_FN(ub_de_params) *p, const int 
         b = v_select(active, nb, b);
         c = v_select(active, nc, c);
         d = v_select(active, nd, d);
-        active = UB_FN(orbit_step)(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
+        active = orbit_step(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
         if (!m_bits(active))
             break;
     }
@@ -154,7 +154,7 @@ static inline void UB_FN(de_quaternion)(const UB_FN(ub_de_params) *p, const int 
     vm escaped = v_gt(r2, p->bail2);
     if (mandel)
         dr2 = v_mul(dm, dm);
-    vf lr2 = UB_FN(v_log)(r2);
+    vf lr2 = v_log(r2);
     vf est = v_mul(v_mul(v_sqrt(v_div(r2, dr2)), lr2), v_set1(0.25f));
     *dist = v_select(escaped, est, v_set1(0.0f));
     *iters = n;
@@ -173,8 +173,8 @@ static inline void UB_FN(de_quaternion)(const UB_FN(ub_de_params) *p, const int 
  * with |grad|^2 = |dz_n/dz|^2 + |dz_n/dc|^2 |dc/dw|^2, the second term the Mandelbrot
  * derivative (|dz/dc| <- 2|z||dz/dc| + 1) times the path's speed. A constant path leaves the
  * exact planar estimate: a straight extrusion. Cut to the slab |w| <= height / 2. */
-static inline void UB_FN(de_stack)(const UB_FN(ub_de_params) *p, vf x, vf y, vf w, const int want, vf *dist, vf *iters,
-                                   UB_FN(ub_de_extra) *ex)
+static inline void de_stack(const ub_de_params *p, vf x, vf y, vf w, const int want, vf *dist, vf *iters,
+                                   ub_de_extra *ex)
 {
     const ub_object *o = p->obj;
     float cr[UB_LANES], ci[UB_LANES], speed[UB_LANES], wl[UB_LANES];
@@ -208,12 +208,12 @@ static inline void UB_FN(de_stack)(const UB_FN(ub_de_params) *p, vf x, vf y, vf 
         vf nr2 = v_fma(na, na, v_mul(nb, nb));
         a = v_select(active, na, a);
         b = v_select(active, nb, b);
-        active = UB_FN(orbit_step)(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
+        active = orbit_step(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
         if (!m_bits(active))
             break;
     }
     vm escaped = v_gt(r2, p->bail2);
-    vf lr2 = UB_FN(v_log)(r2);
+    vf lr2 = v_log(r2);
     vf dc = v_mul(dm, cw);
     vf est = v_mul(v_mul(v_sqrt(v_div(r2, v_fma(dc, dc, dr2))), lr2), v_set1(0.25f));
     vf slab = v_sub(v_max(w, v_sub(v_set1(0.0f), w)), v_set1((float)(0.5 * o->stack_height)));
@@ -232,7 +232,7 @@ static inline void UB_FN(de_stack)(const UB_FN(ub_de_params) *p, vf x, vf y, vf 
  *   P <- f'(z) P - 6 a z,  Q <- f'(z) Q + 1,  f'(z) = 3z^2 - 3a^2,  P0 = sign, Q0 = 0.
  * Empirical estimate (section 5.2 knows none): |z_n| log|z_n| / (2 |grad|), the gradient over
  * the slice's three axes (Frobenius norm: never below the true gradient's length). */
-static inline void UB_FN(cubic_orbit)(const UB_FN(ub_de_params) *p, float sign, vf ar, vf ai, vf br, vf bi,
+static inline void cubic_orbit(const ub_de_params *p, float sign, vf ar, vf ai, vf br, vf bi,
                                       const int want, vf *dist, vf *iters, vf *trap_out, vf *potential)
 {
     const ub_object *o = p->obj;
@@ -261,7 +261,7 @@ static inline void UB_FN(cubic_orbit)(const UB_FN(ub_de_params) *p, float sign, 
         pi = v_select(active, npi, pi);
         qr = v_select(active, nqr, qr);
         qi = v_select(active, nqi, qi);
-        active = UB_FN(orbit_step)(p, want, active, nr2, &r2, &n, &trap, &gscale, third);
+        active = orbit_step(p, want, active, nr2, &r2, &n, &trap, &gscale, third);
         if (!m_bits(active))
             break;
     }
@@ -275,7 +275,7 @@ static inline void UB_FN(cubic_orbit)(const UB_FN(ub_de_params) *p, float sign, 
         grad2 = v_fma(gr, gr, v_fma(gi, gi, grad2));
     }
     vm escaped = v_gt(r2, p->bail2);
-    vf lr2 = UB_FN(v_log)(r2);
+    vf lr2 = v_log(r2);
     vf est = v_mul(v_mul(v_sqrt(v_div(r2, grad2)), lr2), v_set1(0.25f));
     /* An overflowed gradient gives 0 (a hit) rather than a step too far. */
     *dist = v_select(escaped, v_select(v_lt(grad2, v_set1(HUGE_VALF)), est, zero), zero);
@@ -286,16 +286,16 @@ static inline void UB_FN(cubic_orbit)(const UB_FN(ub_de_params) *p, float sign, 
 
 /* The cubic connectedness locus (section 5.2) in the 4-D (a, b) space: C+, C-, their union
  * (min of the estimates) or their intersection (max), clipped to the ball |(a, b)| <= extent. */
-static inline void UB_FN(de_cubic)(const UB_FN(ub_de_params) *p, vf ar, vf ai, vf br, vf bi, const int want, vf *dist,
-                                   vf *iters, UB_FN(ub_de_extra) *x)
+static inline void de_cubic(const ub_de_params *p, vf ar, vf ai, vf br, vf bi, const int want, vf *dist,
+                                   vf *iters, ub_de_extra *x)
 {
     const ub_object *o = p->obj;
     vf d, n, trap, pot;
     int comp = o->cubic_component;
-    UB_FN(cubic_orbit)(p, comp == UB_CUBIC_MINUS ? -1.0f : 1.0f, ar, ai, br, bi, want, &d, &n, &trap, &pot);
+    cubic_orbit(p, comp == UB_CUBIC_MINUS ? -1.0f : 1.0f, ar, ai, br, bi, want, &d, &n, &trap, &pot);
     if (comp == UB_CUBIC_UNION || comp == UB_CUBIC_BOTH) {
         vf d2, n2, trap2, pot2;
-        UB_FN(cubic_orbit)(p, -1.0f, ar, ai, br, bi, want, &d2, &n2, &trap2, &pot2);
+        cubic_orbit(p, -1.0f, ar, ai, br, bi, want, &d2, &n2, &trap2, &pot2);
         vm second = comp == UB_CUBIC_UNION ? v_lt(d2, d) : v_gt(d2, d);
         d = v_select(second, d2, d);
         n = v_select(second, n2, n);
@@ -316,8 +316,8 @@ static inline void UB_FN(de_cubic)(const UB_FN(ub_de_params) *p, vf ar, vf ai, v
 /* 3-D IFS (section 5.3): the bounding-ball hierarchy of ifs.c, lane by lane in double precision.
  * The bound is signed (negative inside a leaf ball), so gradients give the leaves' normals. The
  * escape count is the depth that settled the bound, the orbit trap the leaf's address. */
-static inline void UB_FN(de_ifs)(const UB_FN(ub_de_params) *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
-                                 UB_FN(ub_de_extra) *ex)
+static inline void de_ifs(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+                                 ub_de_extra *ex)
 {
     float xs[UB_LANES], ys[UB_LANES], zs[UB_LANES], ds[UB_LANES], ns[UB_LANES], as[UB_LANES];
     v_store(xs, x);
@@ -341,24 +341,24 @@ static inline void UB_FN(de_ifs)(const UB_FN(ub_de_params) *p, vf x, vf y, vf z,
 }
 
 /* The distance estimate of the object's kind, with the extras `want` asks for. */
-static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf d, const int want, vf *dist,
-                                 vf *iters, UB_FN(ub_de_extra) *x)
+static inline void de_ext(const ub_de_params *p, vf a, vf b, vf c, vf d, const int want, vf *dist,
+                                 vf *iters, ub_de_extra *x)
 {
     switch (p->obj->kind) {
     case UB_KIND_QUATERNION_MANDELBROT:
-        UB_FN(de_quaternion)(p, 1, a, b, c, d, want, dist, iters, x);
+        de_quaternion(p, 1, a, b, c, d, want, dist, iters, x);
         break;
     case UB_KIND_JULIA_STACK:
-        UB_FN(de_stack)(p, a, b, c, want, dist, iters, x);
+        de_stack(p, a, b, c, want, dist, iters, x);
         break;
     case UB_KIND_CUBIC_LOCUS:
-        UB_FN(de_cubic)(p, a, b, c, d, want, dist, iters, x);
+        de_cubic(p, a, b, c, d, want, dist, iters, x);
         break;
     case UB_KIND_IFS:
-        UB_FN(de_ifs)(p, a, b, c, want, dist, iters, x);
+        de_ifs(p, a, b, c, want, dist, iters, x);
         break;
     default:
-        UB_FN(de_quaternion)(p, 0, a, b, c, d, want, dist, iters, x);
+        de_quaternion(p, 0, a, b, c, d, want, dist, iters, x);
         break;
     }
 }
@@ -370,16 +370,16 @@ static inline void UB_FN(de_ext)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c,
  * quaternions); we carry its square, 4 |z|^2 |f'|^2, to avoid a square root per iteration.
  * Points that never escape are in K_mu as far as we can tell: their estimate is 0 (a hit).
  * Writes the estimate (object units) and the escape count. */
-static inline void UB_FN(de)(const UB_FN(ub_de_params) *p, vf a, vf b, vf c, vf d, vf *dist, vf *iters)
+static inline void de(const ub_de_params *p, vf a, vf b, vf c, vf d, vf *dist, vf *iters)
 {
     /* want = 0: no extras (trap, derivatives) are gathered; GCC keeps de_ext out of line, and the
      * Julia benchmark runs as fast as with the earlier inlined loop (0.108 s, 640x512, 1 thread). */
-    UB_FN(ub_de_extra) unused;
-    UB_FN(de_ext)(p, a, b, c, d, 0, dist, iters, &unused);
+    ub_de_extra unused;
+    de_ext(p, a, b, c, d, 0, dist, iters, &unused);
 }
 
 /* Object-space point -> quaternion on the object's slice, in double then rounded. */
-static inline void UB_FN(to_quaternion)(const ub_object *o, const double p[3], float q[4])
+static inline void to_quaternion(const ub_object *o, const double p[3], float q[4])
 {
     for (int k = 0; k < 4; k++) {
         const double *b = o->slice_basis[k];
@@ -387,7 +387,7 @@ static inline void UB_FN(to_quaternion)(const ub_object *o, const double p[3], f
     }
 }
 
-static inline void UB_FN(world_to_object_point)(const ub_object *o, const double p[3], double out[3])
+static inline void world_to_object_point(const ub_object *o, const double p[3], double out[3])
 {
     for (int i = 0; i < 3; i++) {
         const double *w = o->world_to_object[i];
@@ -396,14 +396,14 @@ static inline void UB_FN(world_to_object_point)(const ub_object *o, const double
 }
 
 /* A packet of world points -> the object's quaternions, one per lane. */
-static inline void UB_FN(quaternion_lanes)(const ub_object *o, const double p[3][UB_LANES], vf q[4])
+static inline void quaternion_lanes(const ub_object *o, const double p[3][UB_LANES], vf q[4])
 {
     float qs[4][UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
         double wp[3] = {p[0][l], p[1][l], p[2][l]}, op[3];
         float ql[4];
-        UB_FN(world_to_object_point)(o, wp, op);
-        UB_FN(to_quaternion)(o, op, ql);
+        world_to_object_point(o, wp, op);
+        to_quaternion(o, op, ql);
         for (int c = 0; c < 4; c++)
             qs[c][l] = ql[c];
     }
@@ -415,11 +415,11 @@ static inline void UB_FN(quaternion_lanes)(const ub_object *o, const double p[3]
  * eq. 15's central differences of d() or G() with the step h (object units), or the analytic
  * gradient. A degenerate gradient (all samples inside the set, or G flat) falls back to the
  * analytic normal, and that to zero (the caller then faces the normal to the viewer). */
-static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *dp, const vf q[4], vf h, vf g[3])
+static void object_normal(const ub_object *o, const ub_de_params *dp, const vf q[4], vf h, vf g[3])
 {
     int method = (int)o->normal_method;
     vf dist, it;
-    UB_FN(ub_de_extra) x;
+    ub_de_extra x;
     vm good = m_false(); /* lanes with a usable gradient */
     /* Only the quaternion kinds carry a Jacobian, and the IFS has no potential: the others use
      * the distance gradient. */
@@ -439,10 +439,10 @@ static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *
                 vf a = v_fma(sg, off[0], q[0]), b = v_fma(sg, off[1], q[1]), c = v_fma(sg, off[2], q[2]),
                    d = v_fma(sg, off[3], q[3]);
                 if (potential) {
-                    UB_FN(de_ext)(dp, a, b, c, d, UB_WANT_POTENTIAL, &dist, &it, &x);
+                    de_ext(dp, a, b, c, d, UB_WANT_POTENTIAL, &dist, &it, &x);
                     v[side] = x.potential;
                 } else {
-                    UB_FN(de)(dp, a, b, c, d, &v[side], &it);
+                    de(dp, a, b, c, d, &v[side], &it);
                 }
             }
             g[axis] = v_sub(v[0], v[1]);
@@ -457,7 +457,7 @@ static void UB_FN(object_normal)(const ub_object *o, const UB_FN(ub_de_params) *
             g[k] = v_select(good, g[k], v_set1(0.0f));
         return;
     }
-    UB_FN(de_ext)(dp, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
+    de_ext(dp, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
     for (int k = 0; k < 3; k++)
         g[k] = method == UB_NORMAL_ANALYTIC ? x.normal[k] : v_select(good, g[k], x.normal[k]);
 }

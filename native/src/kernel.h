@@ -17,16 +17,19 @@
 #include <math.h>
 #include <string.h>
 
+/* Each kernel file is its own translation unit, so everything here is static and keeps its
+ * plain name; only the entry points scene.h declares get the kernel's suffix (_avx2, _portable),
+ * as Cycles' kernel_arch.h suffixes only its entry points. */
 #define UB_CAT2(a, b) a##b
 #define UB_CAT(a, b) UB_CAT2(a, b)
-#define UB_FN(name) UB_CAT(name, KERNEL_SUFFIX)
+#define UB_ENTRY(name) UB_CAT(name, KERNEL_SUFFIX)
 
 #include "estimators.h"
 #include "march.h"
 #include "shading.h"
 
 /* Camera ray of full-image pixel (px, py) at sub-pixel offset `off` (one anti-aliasing sample). */
-static void UB_FN(pixel_ray)(const ub_camera *cam, int px, int py, const double off[2], double o[3], double d[3],
+static void pixel_ray(const ub_camera *cam, int px, int py, const double off[2], double o[3], double d[3],
                              double *t_min, double *t_max)
 {
     ub_camera_ray(cam, px + off[0], py + off[1], o, d, t_min, t_max);
@@ -34,12 +37,12 @@ static void UB_FN(pixel_ray)(const ub_camera *cam, int px, int py, const double 
 
 /* Camera rays of the n pixels (px + step l, py), l < n; padding lanes repeat the last real
  * pixel (their results are discarded). */
-static void UB_FN(camera_packet)(const ub_camera *cam, int px, int py, int step, int n, const double off[2],
-                                 UB_FN(ub_packet_rays) *pr)
+static void camera_packet(const ub_camera *cam, int px, int py, int step, int n, const double off[2],
+                                 ub_packet_rays *pr)
 {
     for (int l = 0; l < UB_LANES; l++) {
         double o[3], d[3];
-        UB_FN(pixel_ray)(cam, px + step * (l < n ? l : n - 1), py, off, o, d, &pr->t_min[l], &pr->t_max[l]);
+        pixel_ray(cam, px + step * (l < n ? l : n - 1), py, off, o, d, &pr->t_min[l], &pr->t_max[l]);
         for (int i = 0; i < 3; i++) {
             pr->origin[i][l] = o[i];
             pr->dir[i][l] = d[i];
@@ -48,13 +51,13 @@ static void UB_FN(camera_packet)(const ub_camera *cam, int px, int py, int step,
     }
 }
 
-static void UB_FN(tile_primary)(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1,
+static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1,
                                 ub_counters *cnt)
 {
     const ub_hit_buffer *hb = sc->hits;
-    UB_FN(ub_de_params) dps[UB_MAX_OBJECTS];
+    ub_de_params dps[UB_MAX_OBJECTS];
     for (int k = 0; k < sc->object_count; k++)
-        UB_FN(de_params)(&sc->objects[k], sc->camera, &dps[k]);
+        de_params(&sc->objects[k], sc->camera, &dps[k]);
     double off[2];
     ub_sample_offset(sample, &off[0], &off[1]);
     for (int y = ty0; y < ty1; y++) {
@@ -62,10 +65,10 @@ static void UB_FN(tile_primary)(const ub_scene *sc, int sample, int tx0, int ty0
             if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
-            UB_FN(ub_packet_rays) pr;
-            UB_FN(camera_packet)(sc->camera, hb->x0 + hb->step * x, hb->y0 + hb->step * y, hb->step, n, off, &pr);
-            UB_FN(ub_trace_result) tr;
-            UB_FN(trace)(sc, dps, &pr, (1 << n) - 1, sc->shading->sea, 0, NULL, &tr, cnt);
+            ub_packet_rays pr;
+            camera_packet(sc->camera, hb->x0 + hb->step * x, hb->y0 + hb->step * y, hb->step, n, off, &pr);
+            ub_trace_result tr;
+            trace(sc, dps, &pr, (1 << n) - 1, sc->shading->sea ? UB_TRACE_SEA : 0, NULL, &tr, cnt);
             for (int l = 0; l < n; l++) {
                 ub_hit *h = &hb->hits[(size_t)y * hb->w + x + l];
                 h->t = tr.t[l];
@@ -81,7 +84,7 @@ static void UB_FN(tile_primary)(const ub_scene *sc, int sample, int tx0, int ty0
 }
 
 /* World position of the hit of buffer pixel (bx, by), or 0 if it is not a hit on `object`. */
-static int UB_FN(buffer_point)(const ub_scene *sc, const double off[2], int bx, int by, int object, double p[3],
+static int buffer_point(const ub_scene *sc, const double off[2], int bx, int by, int object, double p[3],
                                float *t)
 {
     const ub_hit_buffer *hb = sc->hits;
@@ -91,7 +94,7 @@ static int UB_FN(buffer_point)(const ub_scene *sc, const double off[2], int bx, 
     if (h->object != object)
         return 0;
     double o[3], d[3], t0, t1;
-    UB_FN(pixel_ray)(sc->camera, hb->x0 + hb->step * bx, hb->y0 + hb->step * by, off, o, d, &t0, &t1);
+    pixel_ray(sc->camera, hb->x0 + hb->step * bx, hb->y0 + hb->step * by, off, o, d, &t0, &t1);
     for (int i = 0; i < 3; i++)
         p[i] = o[i] + (double)h->t * d[i];
     *t = h->t;
@@ -101,7 +104,7 @@ static int UB_FN(buffer_point)(const ub_scene *sc, const double off[2], int bx, 
 /* Eq. 12-14 with the neighbours' actual hit points (exact under perspective): the normal of the
  * plane through the hit and its right/up neighbours. Of the two neighbours on an axis, the one
  * nearer in depth on the same object is used, so silhouettes do not bend the normal. */
-static int UB_FN(zbuffer_normal)(const ub_scene *sc, const double off[2], int bx, int by, int object, const double p[3],
+static int zbuffer_normal(const ub_scene *sc, const double off[2], int bx, int by, int object, const double p[3],
                                  float t, const double dir[3], double n[3])
 {
     double e[2][3];
@@ -111,8 +114,8 @@ static int UB_FN(zbuffer_normal)(const ub_scene *sc, const double off[2], int bx
         for (int side = 1; side >= -1; side -= 2) {
             double q[3];
             float tq;
-            int ok = axis == 0 ? UB_FN(buffer_point)(sc, off, bx + side, by, object, q, &tq)
-                               : UB_FN(buffer_point)(sc, off, bx, by + side, object, q, &tq);
+            int ok = axis == 0 ? buffer_point(sc, off, bx + side, by, object, q, &tq)
+                               : buffer_point(sc, off, bx, by + side, object, q, &tq);
             if (!ok || !(fabs((double)tq - t) < best))
                 continue;
             best = fabs((double)tq - t);
@@ -136,7 +139,7 @@ static int UB_FN(zbuffer_normal)(const ub_scene *sc, const double off[2], int bx
 }
 
 /* Gradient step of eq. 15, h = alpha Gamma(t), Gamma(t) = t^delta (Table 1), world units. */
-static inline double UB_FN(gradient_step)(const ub_object *o, double t)
+static inline double gradient_step(const ub_object *o, double t)
 {
     return o->normal_alpha * pow(t > 0.0 ? t : 0.0, o->normal_delta);
 }
@@ -149,12 +152,12 @@ typedef struct {
     float trap[UB_LANES];
     float reflectivity[UB_LANES];
     float bias[UB_LANES];   /* offset of secondary ray origins off the surface */
-} UB_FN(ub_surface);
+} ub_surface;
 
 /* Normals, colour and trap of the hits in `hit_lanes` of one bounce. */
-static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, const double off[2], int bounce, int fx,
-                           int fy, const UB_FN(ub_packet_rays) *pr, const UB_FN(ub_trace_result) *tr,
-                           int hit_lanes, int want_trap, UB_FN(ub_surface) *sf)
+static void surface(const ub_scene *sc, const ub_de_params *dps, const double off[2], int bounce, int fx,
+                           int fy, const ub_packet_rays *pr, const ub_trace_result *tr,
+                           int hit_lanes, int want_trap, ub_surface *sf)
 {
     const ub_shading *sh = sc->shading;
     const ub_hit_buffer *hb = sc->hits;
@@ -197,14 +200,14 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
             if (!((mine >> l) & 1))
                 continue;
             double path = (double)pr->t_base[l] + tr->t[l];
-            hb_[l] = (float)(UB_FN(gradient_step)(o, path) / o->sigma_min);
+            hb_[l] = (float)(gradient_step(o, path) / o->sigma_min);
             /* Secondary rays start a few hit thresholds off the surface. */
             sf->bias[l] = 4.0f * (e0[l] + e1[l] * (float)path);
             sf->reflectivity[l] = o->reflectivity;
             if (o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0) {
                 double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, n[3];
                 double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-                if (UB_FN(zbuffer_normal)(sc, off, fx + l + hb->apron_x, fy + hb->apron_y, k,
+                if (zbuffer_normal(sc, off, fx + l + hb->apron_x, fy + hb->apron_y, k,
                                           p, tr->t[l], d, n)) {
                     for (int i = 0; i < 3; i++)
                         nw[i][l] = n[i];
@@ -214,10 +217,10 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
             }
         }
         vf qv[4];
-        UB_FN(quaternion_lanes)(o, back_p, qv);
+        quaternion_lanes(o, back_p, qv);
         if (simd_lanes) {
             vf g[3];
-            UB_FN(object_normal)(o, &dps[k], qv, v_load(hb_), g);
+            object_normal(o, &dps[k], qv, v_load(hb_), g);
             float gb[3][UB_LANES];
             for (int a = 0; a < 3; a++)
                 v_store(gb[a], g[a]);
@@ -235,8 +238,8 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
         float tb[UB_LANES] = {0};
         if (need_trap) {
             vf dist, it;
-            UB_FN(ub_de_extra) x;
-            UB_FN(de_ext)(&dps[k], qv[0], qv[1], qv[2], qv[3], UB_WANT_TRAP, &dist, &it, &x);
+            ub_de_extra x;
+            de_ext(&dps[k], qv[0], qv[1], qv[2], qv[3], UB_WANT_TRAP, &dist, &it, &x);
             v_store(tb, x.trap);
         }
         for (int l = 0; l < UB_LANES; l++) {
@@ -244,14 +247,14 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
                 continue;
             sf->trap[l] = tb[l];
             float c[3];
-            UB_FN(albedo)(o, tb[l], tr->iters[l], c);
+            albedo(o, tb[l], tr->iters[l], c);
             for (int i = 0; i < 3; i++)
                 sf->albedo[i][l] = c[i];
         }
     }
     if (sea_lanes) {
         float sn[3][UB_LANES];
-        UB_FN(sea_normal)(sc, dps, sf->p, sn);
+        sea_normal(sc, dps, sf->p, sn);
         for (int l = 0; l < UB_LANES; l++) {
             if (!((sea_lanes >> l) & 1))
                 continue;
@@ -286,9 +289,9 @@ static void UB_FN(surface)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, c
 /* Direct light at the hits of one bounce: the axle light and the scene's lights, Lambertian
  * (albedo / pi per unit of irradiance; the axle light is in units of the paper's shading,
  * albedo * cos), with shadow rays toward each light. */
-static void UB_FN(direct_light)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, int bounce, int lanes,
-                                const UB_FN(ub_packet_rays) *pr, const UB_FN(ub_trace_result) *tr,
-                                const UB_FN(ub_surface) *sf, float direct[3][UB_LANES], float shadow[UB_LANES],
+static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce, int lanes,
+                                const ub_packet_rays *pr, const ub_trace_result *tr,
+                                const ub_surface *sf, float direct[3][UB_LANES], float shadow[UB_LANES],
                                 ub_counters *cnt)
 {
     const ub_shading *sh = sc->shading;
@@ -325,7 +328,7 @@ static void UB_FN(direct_light)(const ub_scene *sc, const UB_FN(ub_de_params) *d
         const ub_light *L = &sh->lights[j];
         double E[3][UB_LANES], cosv[UB_LANES];
         int cand = 0;
-        UB_FN(ub_packet_rays) sr;
+        ub_packet_rays sr;
         float tan_angle[UB_LANES];
         for (int l = 0; l < UB_LANES; l++) {
             sr.t_base[l] = 0.0f;
@@ -338,7 +341,7 @@ static void UB_FN(direct_light)(const ub_scene *sc, const UB_FN(ub_de_params) *d
             if (!((lanes >> l) & 1))
                 continue;
             double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, dl[3], dist, e[3], ta;
-            if (!UB_FN(light_sample)(L, p, dl, &dist, e, &ta))
+            if (!light_sample(L, p, dl, &dist, e, &ta))
                 continue;
             double c = sf->n[0][l] * dl[0] + sf->n[1][l] * dl[1] + sf->n[2][l] * dl[2];
             if (!(c > 0.0))
@@ -366,9 +369,9 @@ static void UB_FN(direct_light)(const ub_scene *sc, const UB_FN(ub_de_params) *d
         for (int l = 0; l < UB_LANES; l++)
             vis[l] = 1.0f;
         if (sh->shadows != UB_SHADOWS_NONE && L->cast_shadow) {
-            UB_FN(ub_trace_result) st;
+            ub_trace_result st;
             int soft = sh->shadows == UB_SHADOWS_SOFT;
-            UB_FN(trace)(sc, dps, &sr, cand, 0, 1, soft ? tan_angle : NULL, &st, cnt);
+            trace(sc, dps, &sr, cand, UB_TRACE_ANY_HIT, soft ? tan_angle : NULL, &st, cnt);
             for (int l = 0; l < UB_LANES; l++) {
                 if (!((cand >> l) & 1))
                     continue;
@@ -399,12 +402,14 @@ static void UB_FN(direct_light)(const ub_scene *sc, const UB_FN(ub_de_params) *d
 /* Writes (sample 0) or accumulates (later samples) one pass value; the last sample divides by
  * the sample count. Data passes (depth, normal, position, ...) come from sample 0 alone: the
  * pixel centre, as with one sample. */
-static inline void UB_FN(put)(float *buf, size_t idx, int chans, const float *v, int sample, int samples, int average)
+typedef enum { PASS_DATA = 0, PASS_AVERAGED = 1 } pass_kind;
+
+static inline void put(float *buf, size_t idx, int chans, const float *v, int sample, int samples, pass_kind kind)
 {
     if (!buf)
         return;
     float *p = buf + idx * (size_t)chans;
-    if (!average) {
+    if (kind == PASS_DATA) {
         if (sample == 0)
             memcpy(p, v, (size_t)chans * sizeof(float));
         return;
@@ -417,15 +422,15 @@ static inline void UB_FN(put)(float *buf, size_t idx, int chans, const float *v,
     }
 }
 
-static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1, ub_counters *cnt)
+static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1, ub_counters *cnt)
 {
     const ub_camera *cam = sc->camera;
     const ub_film *film = sc->film;
     const ub_shading *sh = sc->shading;
     const ub_hit_buffer *hb = sc->hits;
-    UB_FN(ub_de_params) dps[UB_MAX_OBJECTS];
+    ub_de_params dps[UB_MAX_OBJECTS];
     for (int k = 0; k < sc->object_count; k++)
-        UB_FN(de_params)(&sc->objects[k], cam, &dps[k]);
+        de_params(&sc->objects[k], cam, &dps[k]);
     const int want_trap = film->pass[UB_PASS_ORBIT_TRAP] != NULL;
     const float glow_scale = 1.0f / 64.0f;
     /* AO only changes the ambient term: without ambient light it is needed for its pass alone. */
@@ -441,9 +446,9 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             int lanes = (1 << n) - 1;
-            UB_FN(ub_packet_rays) pr;
-            UB_FN(ub_trace_result) tr;
-            UB_FN(camera_packet)(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, off, &pr);
+            ub_packet_rays pr;
+            ub_trace_result tr;
+            camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, off, &pr);
             for (int l = 0; l < UB_LANES; l++) {
                 int lx = x + (l < n ? l : n - 1);
                 const ub_hit *h = &hb->hits[(size_t)(y + hb->apron_y) * hb->w + (lx + hb->apron_x)];
@@ -483,7 +488,7 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
             int alive = lanes;
             for (int bounce = 0; alive; bounce++) {
                 if (bounce > 0) {
-                    UB_FN(trace)(sc, dps, &pr, alive, sh->sea, 0, NULL, &tr, cnt);
+                    trace(sc, dps, &pr, alive, sh->sea ? UB_TRACE_SEA : 0, NULL, &tr, cnt);
                     for (int l = 0; l < UB_LANES; l++)
                         if ((alive >> l) & 1)
                             cnt->steps += (uint64_t)tr.steps[l];
@@ -507,12 +512,12 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                 }
                 if (!hit_lanes)
                     break;
-                UB_FN(ub_surface) sf;
-                UB_FN(surface)(sc, dps, off, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
+                ub_surface sf;
+                surface(sc, dps, off, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
                 float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
-                UB_FN(direct_light)(sc, dps, bounce, hit_lanes, &pr, &tr, &sf, direct, shadow, cnt);
+                direct_light(sc, dps, bounce, hit_lanes, &pr, &tr, &sf, direct, shadow, cnt);
                 if (use_ao)
-                    UB_FN(ambient_occlusion)(sc, dps, hit_lanes, sf.p, sf.n, ao);
+                    ambient_occlusion(sc, dps, hit_lanes, sf.p, sf.n, ao);
                 else
                     for (int l = 0; l < UB_LANES; l++)
                         ao[l] = 1.0f;
@@ -587,39 +592,39 @@ static void UB_FN(tile_shade)(const ub_scene *sc, int sample, int tx0, int ty0, 
                 float dif[3] = {pass_diffuse[0][l], pass_diffuse[1][l], pass_diffuse[2][l]};
                 float amb[3] = {pass_ambient[0][l], pass_ambient[1][l], pass_ambient[2][l]};
                 int S = sh->samples;
-                UB_FN(put)(film->pass[UB_PASS_COMBINED], idx, 4, rgba, sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_ALPHA], idx, 1, &alpha, sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_DEPTH], idx, 1, &depthf, sample, S, 0);
-                UB_FN(put)(film->pass[UB_PASS_NORMAL], idx, 3, hit ? normal : zero3, sample, S, 0);
-                UB_FN(put)(film->pass[UB_PASS_POSITION], idx, 3, hit ? pos : zero3, sample, S, 0);
-                UB_FN(put)(film->pass[UB_PASS_ITERATIONS], idx, 1, &iters, sample, S, 0);
-                UB_FN(put)(film->pass[UB_PASS_STEPS], idx, 1, &primary_steps[l], sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_DISTANCE], idx, 1, &dist, sample, S, 0);
-                UB_FN(put)(film->pass[UB_PASS_AO], idx, 1, &pass_ao[l], sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_SHADOW], idx, 1, &pass_shadow[l], sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_DIFFUSE], idx, 3, dif, sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_AMBIENT], idx, 3, amb, sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &pass_trap[l], sample, S, 1);
-                UB_FN(put)(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, 1);
+                put(film->pass[UB_PASS_COMBINED], idx, 4, rgba, sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_ALPHA], idx, 1, &alpha, sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_DEPTH], idx, 1, &depthf, sample, S, PASS_DATA);
+                put(film->pass[UB_PASS_NORMAL], idx, 3, hit ? normal : zero3, sample, S, PASS_DATA);
+                put(film->pass[UB_PASS_POSITION], idx, 3, hit ? pos : zero3, sample, S, PASS_DATA);
+                put(film->pass[UB_PASS_ITERATIONS], idx, 1, &iters, sample, S, PASS_DATA);
+                put(film->pass[UB_PASS_STEPS], idx, 1, &primary_steps[l], sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_DISTANCE], idx, 1, &dist, sample, S, PASS_DATA);
+                put(film->pass[UB_PASS_AO], idx, 1, &pass_ao[l], sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_SHADOW], idx, 1, &pass_shadow[l], sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_DIFFUSE], idx, 3, dif, sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_AMBIENT], idx, 3, amb, sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &pass_trap[l], sample, S, PASS_AVERAGED);
+                put(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, PASS_AVERAGED);
             }
         }
     }
 }
 
-void UB_FN(ub_render_tile)(const ub_scene *sc, int phase, int sample, int tx0, int ty0, int tx1, int ty1,
+void UB_ENTRY(ub_render_tile)(const ub_scene *sc, int phase, int sample, int tx0, int ty0, int tx1, int ty1,
                            ub_counters *cnt)
 {
     if (phase == 0)
-        UB_FN(tile_primary)(sc, sample, tx0, ty0, tx1, ty1, cnt);
+        tile_primary(sc, sample, tx0, ty0, tx1, ty1, cnt);
     else
-        UB_FN(tile_shade)(sc, sample, tx0, ty0, tx1, ty1, cnt);
+        tile_shade(sc, sample, tx0, ty0, tx1, ty1, cnt);
 }
 
-void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, float *estimate, float *iterations)
+void UB_ENTRY(ub_estimate)(const ub_object *o, const float *xyz, size_t count, float *estimate, float *iterations)
 {
-    UB_FN(ub_de_params) dp;
-    UB_FN(de_params)(o, NULL, &dp);
+    ub_de_params dp;
+    de_params(o, NULL, &dp);
     for (size_t base = 0; base < count; base += UB_LANES) {
         float q[4][UB_LANES];
         size_t n = count - base < UB_LANES ? count - base : UB_LANES;
@@ -627,12 +632,12 @@ void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, floa
             const float *p = xyz + 3 * (base + (l < n ? l : n - 1));
             double pd[3] = {p[0], p[1], p[2]};
             float ql[4];
-            UB_FN(to_quaternion)(o, pd, ql);
+            to_quaternion(o, pd, ql);
             for (int k = 0; k < 4; k++)
                 q[k][l] = ql[k];
         }
         vf dist, it;
-        UB_FN(de)(&dp, v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &dist, &it);
+        de(&dp, v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &dist, &it);
         float db[UB_LANES], ib[UB_LANES];
         v_store(db, dist);
         v_store(ib, it);
@@ -658,10 +663,10 @@ void UB_FN(ub_estimate)(const ub_object *o, const float *xyz, size_t count, floa
     }
 }
 
-void UB_FN(ub_normals)(const ub_object *o, const float *xyz, const float *t, size_t count, float *normals)
+void UB_ENTRY(ub_normals)(const ub_object *o, const float *xyz, const float *t, size_t count, float *normals)
 {
-    UB_FN(ub_de_params) dp;
-    UB_FN(de_params)(o, NULL, &dp);
+    ub_de_params dp;
+    de_params(o, NULL, &dp);
     for (size_t base = 0; base < count; base += UB_LANES) {
         float q[4][UB_LANES], h[UB_LANES];
         size_t n = count - base < UB_LANES ? count - base : UB_LANES;
@@ -669,13 +674,13 @@ void UB_FN(ub_normals)(const ub_object *o, const float *xyz, const float *t, siz
             size_t i = base + (l < n ? l : n - 1);
             double pd[3] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
             float ql[4];
-            UB_FN(to_quaternion)(o, pd, ql);
+            to_quaternion(o, pd, ql);
             for (int k = 0; k < 4; k++)
                 q[k][l] = ql[k];
-            h[l] = (float)(UB_FN(gradient_step)(o, t[i]) / o->sigma_min);
+            h[l] = (float)(gradient_step(o, t[i]) / o->sigma_min);
         }
         vf qv[4] = {v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3])}, g[3];
-        UB_FN(object_normal)(o, &dp, qv, v_load(h), g);
+        object_normal(o, &dp, qv, v_load(h), g);
         float gb[3][UB_LANES];
         for (int a = 0; a < 3; a++)
             v_store(gb[a], g[a]);

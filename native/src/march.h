@@ -9,7 +9,7 @@ typedef struct {
     double origin[3][UB_LANES], dir[3][UB_LANES];
     double t_min[UB_LANES], t_max[UB_LANES];
     float t_base[UB_LANES];
-} UB_FN(ub_packet_rays);
+} ub_packet_rays;
 
 /* Per-lane state of rays against one object, prepared in double precision. */
 typedef struct {
@@ -17,16 +17,16 @@ typedef struct {
     float q_dir[4][UB_LANES];   /* quaternion-space change per unit of world distance */
     float t_enter[UB_LANES];    /* world distance along the ray at entry */
     float s_max[UB_LANES];      /* distance marched from entry before giving up */
-} UB_FN(ub_object_rays);
+} ub_object_rays;
 
 /* Clip each lane's ray against the object's bounding ball; returns the lanes that touch it. */
-static int UB_FN(object_rays)(const ub_object *o, const UB_FN(ub_packet_rays) *r, const float *t_limit,
-                              int lanes_in, UB_FN(ub_object_rays) *out)
+static int object_rays(const ub_object *o, const ub_packet_rays *r, const float *t_limit,
+                              int lanes_in, ub_object_rays *out)
 {
     int lanes = 0;
     for (int l = 0; l < UB_LANES; l++) {
         double wo[3] = {r->origin[0][l], r->origin[1][l], r->origin[2][l]}, oo[3], od[3];
-        UB_FN(world_to_object_point)(o, wo, oo);
+        world_to_object_point(o, wo, oo);
         for (int i = 0; i < 3; i++) {
             const double *w = o->world_to_object[i];
             od[i] = w[0] * r->dir[0][l] + w[1] * r->dir[1][l] + w[2] * r->dir[2][l];
@@ -53,7 +53,7 @@ static int UB_FN(object_rays)(const ub_object *o, const UB_FN(ub_packet_rays) *r
         }
         double pe[3] = {oo[0] + t0 * od[0], oo[1] + t0 * od[1], oo[2] + t0 * od[2]};
         float qe[4];
-        UB_FN(to_quaternion)(o, pe, qe);
+        to_quaternion(o, pe, qe);
         for (int k = 0; k < 4; k++) {
             const double *b = o->slice_basis[k];
             out->q_enter[k][l] = qe[k];
@@ -70,9 +70,9 @@ typedef struct {
     vf iters;  /* escape count there */
     vf dist;   /* world-space estimate there */
     vm hit;
-} UB_FN(ub_march_result);
+} ub_march_result;
 
-static inline vf UB_FN(threshold)(const UB_FN(ub_de_params) *p, vf t)
+static inline vf threshold(const ub_de_params *p, vf t)
 {
     return v_fma(p->eps1, t, p->eps0);
 }
@@ -82,9 +82,9 @@ static inline vf UB_FN(threshold)(const UB_FN(ub_de_params) *p, vf t)
  * thin sets come for free: the threshold is the minimum increment, so a dendrite thinner than
  * it still stops the ray. With `penumbra` (shadow rays), also tracks min d / (t tan(angle)):
  * how nearly the ray missed, relative to the light's apparent size (soft shadows). */
-static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_de_params) *dp,
-                         const UB_FN(ub_object_rays) *r, vf t_base, int lanes, int refine_hits,
-                         UB_FN(ub_march_result) *res, vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
+static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
+                         const ub_object_rays *r, vf t_base, int lanes, int refine_hits,
+                         ub_march_result *res, vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
 {
     vf q0[4], qd[4];
     for (int k = 0; k < 4; k++) {
@@ -106,10 +106,10 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
     for (int step = 0; step < o->max_steps && m_bits(active); step++) {
         if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
             return;
-        UB_FN(de)(dp, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
+        de(dp, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
                   v_fma(s, qd[3], q0[3]), &dist, &iters);
         dw = v_mul(dist, sigma);
-        vf eps = UB_FN(threshold)(dp, v_add(tb, s));
+        vf eps = threshold(dp, v_add(tb, s));
         *steps = v_count(*steps, active);
         iter_sum = v_add(iter_sum, v_select(active, iters, v_set1(0.0f)));
         vm is_hit = m_and(active, v_lt(dw, eps));
@@ -135,10 +135,10 @@ static void UB_FN(march)(const ub_scene *sc, const ub_object *o, const UB_FN(ub_
     vf lo = prev, hi = s;
     for (int k = 0; k < o->bisection_steps && m_bits(refine); k++) {
         vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
-        UB_FN(de)(dp, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
+        de(dp, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
                   v_fma(mid, qd[3], q0[3]), &dist, &iters);
         vf dw = v_mul(dist, sigma);
-        vm inside = m_and(refine, v_lt(dw, UB_FN(threshold)(dp, v_add(tb, mid))));
+        vm inside = m_and(refine, v_lt(dw, threshold(dp, v_add(tb, mid))));
         vm outside = m_andnot(inside, refine);
         iter_sum = v_add(iter_sum, v_select(refine, iters, v_set1(0.0f)));
         hi = v_select(inside, mid, hi);
@@ -158,10 +158,10 @@ typedef struct {
     float t[UB_LANES], iters[UB_LANES], dist[UB_LANES], steps[UB_LANES];
     float penumbra[UB_LANES]; /* shadow rays: visibility estimate of an unblocked ray, in [0, 1] */
     int object[UB_LANES];     /* index, UB_HIT_NONE or UB_HIT_SEA */
-} UB_FN(ub_trace_result);
+} ub_trace_result;
 
 /* Distance along each ray to the sea plane z = height (world), or +inf. */
-static inline double UB_FN(sea_t)(const ub_shading *sh, const double o[3], const double d[3])
+static inline double sea_t(const ub_shading *sh, const double o[3], const double d[3])
 {
     if (!sh->sea || d[2] == 0.0)
         return HUGE_VAL;
@@ -169,13 +169,19 @@ static inline double UB_FN(sea_t)(const ub_shading *sh, const double o[3], const
     return t > 0.0 ? t : HUGE_VAL;
 }
 
-/* Trace a packet through the union of the scene's fractal objects (and the sea, when `sea`):
- * the nearest hit wins, and each object's march stops at the nearest hit found so far. Shadow
- * rays pass `tan_angle` (NULL: hard) and stop at any hit. */
-static void UB_FN(trace)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, const UB_FN(ub_packet_rays) *pr,
-                         int lanes, int sea, int any_hit, const float *tan_angle, UB_FN(ub_trace_result) *out,
-                         ub_counters *cnt)
+/* What trace() looks for, as bits of its `flags` word. */
+enum {
+    UB_TRACE_SEA = 1 << 0,     /* the sea plane is in the scene as well as the fractal objects */
+    UB_TRACE_ANY_HIT = 1 << 1, /* shadow rays: stop at the first hit found, not the nearest */
+};
+
+/* Trace a packet through the union of the scene's fractal objects (and the sea with
+ * UB_TRACE_SEA): the nearest hit wins, and each object's march stops at the nearest hit found
+ * so far. Shadow rays pass UB_TRACE_ANY_HIT and `tan_angle` (NULL: hard). */
+static void trace(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays *pr, int lanes,
+                  unsigned flags, const float *tan_angle, ub_trace_result *out, ub_counters *cnt)
 {
+    const int sea = (flags & UB_TRACE_SEA) != 0, any_hit = (flags & UB_TRACE_ANY_HIT) != 0;
     float best_t[UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
         out->object[l] = UB_HIT_NONE;
@@ -185,7 +191,7 @@ static void UB_FN(trace)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, con
         if (sea && ((lanes >> l) & 1)) {
             double o[3] = {pr->origin[0][l], pr->origin[1][l], pr->origin[2][l]};
             double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-            double ts = UB_FN(sea_t)(sc->shading, o, d);
+            double ts = sea_t(sc->shading, o, d);
             if (ts >= pr->t_min[l] && ts <= pr->t_max[l]) {
                 best_t[l] = (float)ts;
                 out->object[l] = UB_HIT_SEA;
@@ -199,12 +205,12 @@ static void UB_FN(trace)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, con
     int open = lanes;
     for (int k = 0; k < sc->object_count && open; k++) {
         const ub_object *o = &sc->objects[k];
-        UB_FN(ub_object_rays) orays;
-        int active = UB_FN(object_rays)(o, pr, best_t, open, &orays);
+        ub_object_rays orays;
+        int active = object_rays(o, pr, best_t, open, &orays);
         if (!active)
             continue;
-        UB_FN(ub_march_result) res;
-        UB_FN(march)(sc, o, &dps[k], &orays, tb, active, !any_hit, &res, &steps, tan_angle ? &pen : NULL, tanv, cnt);
+        ub_march_result res;
+        march(sc, o, &dps[k], &orays, tb, active, !any_hit, &res, &steps, tan_angle ? &pen : NULL, tanv, cnt);
         int hits = m_bits(res.hit) & active;
         if (!hits)
             continue;

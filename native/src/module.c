@@ -1,23 +1,55 @@
 /* CPython binding of the Unbound core, on the limited API (abi3, 3.11+): one wheel for every
  * Python from Blender 4.2 (3.11) to 5.2 (3.13). All validation happens here, before any
- * native work starts: every bad input becomes a ValueError/TypeError naming the parameter. */
+ * native work starts, by one generic parser over the parameter table (params.h): every bad
+ * input becomes a ValueError/TypeError naming the parameter's path, e.g. objects[0].mu[1].
+ *
+ * Arbitrary Python runs while a value is read (__float__, __index__, a sequence's __getitem__),
+ * and it may change the caller's containers. So every container is copied before its items are
+ * read (a dict by PyDict_Copy, a sequence by PySequence_Tuple): the copies hold strong
+ * references, and nothing the parser reads can be freed under it. */
 #define Py_LIMITED_API 0x030B0000
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
 #include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
+#include "params.h"
 #include "render.h"
 #include "scene.h"
 
 #define ERRBUF 256
 
-/* ---------------------------------------------------------------- number parsing helpers */
+/* Where a value sits, for messages: `path` is the text before the key ("objects[0]", or
+ * "fractal 'Mandel'" when the caller names its object), `sep` what joins a key to it, and `hint`
+ * what a non-finite value's message adds (named objects come from animated scenes). */
+typedef struct {
+    const char *path, *sep, *hint;
+} ub_where;
 
-/* Reads a float; NaN is never accepted, infinities only when allow_inf. */
-static int get_double(PyObject *o, const char *name, double lo, double hi, int allow_inf, double *out)
+static void join(char *out, size_t size, const ub_where *w, const char *key)
+{
+    snprintf(out, size, "%s%s%s", w->path, w->path[0] ? w->sep : "", key);
+}
+
+static void set_value_error(const char *fmt, ...)
+{
+    /* PyErr_Format has no %g: format here. */
+    char msg[2 * ERRBUF];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    PyErr_SetString(PyExc_ValueError, msg);
+}
+
+/* ---------------------------------------------------------------- scalars */
+
+static int read_double(PyObject *o, const char *name, double lo, double hi, unsigned flags, const char *hint,
+                       double *out)
 {
     if (!PyFloat_Check(o) && !PyLong_Check(o) && !PyObject_HasAttrString(o, "__float__")) {
         PyErr_Format(PyExc_TypeError, "%s must be a number", name);
@@ -29,22 +61,19 @@ static int get_double(PyObject *o, const char *name, double lo, double hi, int a
         PyErr_Format(PyExc_TypeError, "%s must be a number", name);
         return -1;
     }
-    if (isnan(v) || (isinf(v) && !allow_inf)) {
-        PyErr_Format(PyExc_ValueError, "%s must be finite", name);
+    if (isnan(v) || (isinf(v) && !(flags & UB_PARAM_ALLOW_INF))) {
+        PyErr_Format(PyExc_ValueError, "%s must be finite%s", name, hint);
         return -1;
     }
     if (!(v >= lo && v <= hi)) {
-        /* PyErr_Format has no %g: format here. */
-        char msg[ERRBUF + 96];
-        snprintf(msg, sizeof msg, "%s must be in [%g, %g], got %g", name, lo, hi, v);
-        PyErr_SetString(PyExc_ValueError, msg);
+        set_value_error("%s must be in [%g, %g], got %g", name, lo, hi, v);
         return -1;
     }
     *out = v;
     return 0;
 }
 
-static int get_int(PyObject *o, const char *name, long lo, long hi, int *out)
+static int read_int(PyObject *o, const char *name, double lo, double hi, int *out)
 {
     if (PyFloat_Check(o) || !PyLong_Check(o)) {
         PyErr_Format(PyExc_TypeError, "%s must be an integer", name);
@@ -55,424 +84,14 @@ static int get_int(PyObject *o, const char *name, long lo, long hi, int *out)
     if (v == -1 && PyErr_Occurred())
         return -1;
     if (overflow || v < lo || v > hi) {
-        PyErr_Format(PyExc_ValueError, "%s must be in [%ld, %ld]", name, lo, hi);
+        PyErr_Format(PyExc_ValueError, "%s must be in [%lld, %lld]", name, (long long)lo, (long long)hi);
         return -1;
     }
     *out = (int)v;
     return 0;
 }
 
-/* A sequence of n finite numbers. */
-static int get_vector(PyObject *o, const char *name, int n, double *out)
-{
-    if (!PySequence_Check(o) || PyUnicode_Check(o)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a sequence of %d numbers", name, n);
-        return -1;
-    }
-    Py_ssize_t len = PySequence_Size(o);
-    if (len < 0)
-        return -1;
-    if (len != n) {
-        PyErr_Format(PyExc_ValueError, "%s must have %d components, got %zd", name, n, len);
-        return -1;
-    }
-    for (int i = 0; i < n; i++) {
-        PyObject *item = PySequence_GetItem(o, i);
-        if (!item)
-            return -1;
-        char sub[ERRBUF];
-        snprintf(sub, sizeof sub, "%s[%d]", name, i);
-        int rc = get_double(item, sub, -HUGE_VAL, HUGE_VAL, 0, &out[i]);
-        Py_DECREF(item);
-        if (rc)
-            return -1;
-    }
-    return 0;
-}
-
-/* rows x cols matrix given as a sequence of rows (numpy arrays, mathutils.Matrix, lists). */
-static int get_matrix(PyObject *o, const char *name, int rows, int cols, double *out)
-{
-    if (!PySequence_Check(o) || PyUnicode_Check(o)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a %dx%d matrix (a sequence of rows)", name, rows, cols);
-        return -1;
-    }
-    Py_ssize_t len = PySequence_Size(o);
-    if (len < 0)
-        return -1;
-    if (len != rows) {
-        PyErr_Format(PyExc_ValueError, "%s must be a %dx%d matrix, got %zd rows", name, rows, cols, len);
-        return -1;
-    }
-    for (int r = 0; r < rows; r++) {
-        PyObject *row = PySequence_GetItem(o, r);
-        if (!row)
-            return -1;
-        char sub[ERRBUF];
-        snprintf(sub, sizeof sub, "%s[%d]", name, r);
-        int rc = get_vector(row, sub, cols, out + r * cols);
-        Py_DECREF(row);
-        if (rc)
-            return -1;
-    }
-    return 0;
-}
-
-/* Looks up key in dict d; returns a borrowed reference or NULL (absent, no error set). */
-static PyObject *lookup(PyObject *d, const char *key)
-{
-    return PyDict_GetItemString(d, key);
-}
-
-static int check_keys(PyObject *d, const char *name, const char *const *allowed)
-{
-    PyObject *key, *value;
-    Py_ssize_t pos = 0;
-    while (PyDict_Next(d, &pos, &key, &value)) {
-        if (!PyUnicode_Check(key)) {
-            PyErr_Format(PyExc_TypeError, "%s keys must be strings", name);
-            return -1;
-        }
-        const char *k = PyUnicode_AsUTF8AndSize(key, NULL);
-        if (!k)
-            return -1;
-        int ok = 0;
-        for (const char *const *a = allowed; *a; a++)
-            if (strcmp(*a, k) == 0)
-                ok = 1;
-        if (!ok) {
-            PyErr_Format(PyExc_ValueError, "%s has an unknown key '%s'", name, k);
-            return -1;
-        }
-    }
-    return 0;
-}
-
-static int get_choice(PyObject *o, const char *name, const char *const *choices, int *out)
-{
-    if (!PyUnicode_Check(o)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a string", name);
-        return -1;
-    }
-    const char *s = PyUnicode_AsUTF8AndSize(o, NULL);
-    if (!s)
-        return -1;
-    for (int i = 0; choices[i]; i++)
-        if (strcmp(s, choices[i]) == 0) {
-            *out = i;
-            return 0;
-        }
-    PyErr_Format(PyExc_ValueError, "%s must be one of the documented names, got '%s'", name, s);
-    return -1;
-}
-
-/* ---------------------------------------------------------------- camera and objects */
-
-static const char *const camera_keys[] = {"matrix", "projection", "width", "height", NULL};
-
-static int parse_camera(PyObject *o, ub_camera *cam)
-{
-    if (!PyDict_Check(o)) {
-        PyErr_SetString(PyExc_TypeError, "camera must be a dict with matrix, projection, width, height");
-        return -1;
-    }
-    if (check_keys(o, "camera", camera_keys))
-        return -1;
-    memset(cam, 0, sizeof *cam);
-    PyObject *m = lookup(o, "matrix"), *p = lookup(o, "projection"), *w = lookup(o, "width"),
-             *h = lookup(o, "height");
-    if (!m || !p || !w || !h) {
-        PyErr_SetString(PyExc_ValueError, "camera needs 'matrix', 'projection', 'width' and 'height'");
-        return -1;
-    }
-    double mat[4][4], proj[4][4];
-    if (get_matrix(m, "camera.matrix", 4, 4, &mat[0][0]) || get_matrix(p, "camera.projection", 4, 4, &proj[0][0])
-        || get_int(w, "camera.width", 1, UB_MAX_IMAGE_SIZE, &cam->width)
-        || get_int(h, "camera.height", 1, UB_MAX_IMAGE_SIZE, &cam->height))
-        return -1;
-    const char *err = ub_camera_prepare(cam, mat, proj);
-    if (err) {
-        PyErr_SetString(PyExc_ValueError, err);
-        return -1;
-    }
-    return 0;
-}
-
-static const char *const object_keys[] = {
-    "kind", "mu", "theta", "slice_basis", "slice_origin", "matrix", "max_iterations", "bailout",
-    "epsilon_mode", "epsilon", "detail", "step_factor", "max_step", "max_steps", "bisection_steps",
-    "color", "normal_method", "normal_alpha", "normal_delta", "reflectivity", "color_mode", "color_ramp",
-    "ramp_scale", "ramp_offset", "path", "stack_height", "cubic_component", "extent", "maps", "ifs_depth", NULL,
-};
-/* Indexed by ub_fractal_kind. */
-static const char *const kind_names[] = {"quaternion_julia", "quaternion_mandelbrot", "julia_stack", "cubic_locus",
-                                         "ifs", NULL};
-static const char *const cubic_components[] = {"plus", "minus", "union", "both", NULL};
-static const char *const epsilon_modes[] = {"pixel", "fixed", NULL};
-static const char *const normal_methods[] = {"gradient_distance", "gradient_potential", "zbuffer", "analytic", NULL};
-static const char *const color_modes[] = {"base", "orbit_trap", "iterations", NULL};
-
-/* A colour: 3 numbers within [0, hi]. */
-static int get_color(PyObject *o, const char *name, double hi, float out[3])
-{
-    double c[3];
-    if (get_vector(o, name, 3, c))
-        return -1;
-    for (int i = 0; i < 3; i++) {
-        if (!(c[i] >= 0.0 && c[i] <= hi)) {
-            char msg[ERRBUF + 64];
-            snprintf(msg, sizeof msg, "%s components must be within [0, %g]", name, hi);
-            PyErr_SetString(PyExc_ValueError, msg);
-            return -1;
-        }
-        out[i] = (float)c[i];
-    }
-    return 0;
-}
-
-/* A sequence of min..max items, each parsed by `item_fn` into slot i; returns the count or -1. */
-static int get_sequence(PyObject *o, const char *name, int min, int max, const char *what,
-                        int (*item_fn)(PyObject *, const char *, ub_object *, int), ub_object *obj)
-{
-    if (!PySequence_Check(o) || PyUnicode_Check(o)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a sequence of %s", name, what);
-        return -1;
-    }
-    Py_ssize_t len = PySequence_Size(o);
-    if (len < 0)
-        return -1;
-    if (len < min || len > max) {
-        PyErr_Format(PyExc_ValueError, "%s must hold %d to %d %s, got %zd", name, min, max, what, len);
-        return -1;
-    }
-    for (Py_ssize_t i = 0; i < len; i++) {
-        PyObject *item = PySequence_GetItem(o, i);
-        if (!item)
-            return -1;
-        char sub[ERRBUF];
-        snprintf(sub, sizeof sub, "%s[%zd]", name, i);
-        int rc = item_fn(item, sub, obj, (int)i);
-        Py_DECREF(item);
-        if (rc)
-            return -1;
-    }
-    return (int)len;
-}
-
-static int get_ramp_color(PyObject *o, const char *name, ub_object *obj, int i)
-{
-    return get_color(o, name, 1e6, obj->ramp[i]);
-}
-
-static int get_path_point(PyObject *o, const char *name, ub_object *obj, int i)
-{
-    if (get_vector(o, name, 2, obj->path[i]))
-        return -1;
-    if (fabs(obj->path[i][0]) > 1e3 || fabs(obj->path[i][1]) > 1e3) {
-        PyErr_Format(PyExc_ValueError, "%s: c components must be within [-1000, 1000]", name);
-        return -1;
-    }
-    return 0;
-}
-
-static int get_ifs_map(PyObject *o, const char *name, ub_object *obj, int i)
-{
-    if (get_matrix(o, name, 3, 4, &obj->maps[i][0][0]))
-        return -1;
-    for (int r = 0; r < 3; r++)
-        if (fabs(obj->maps[i][r][3]) > 1e6) {
-            PyErr_Format(PyExc_ValueError, "%s: translations must be within [-1e6, 1e6]", name);
-            return -1;
-        }
-    return 0;
-}
-
-static int parse_object(PyObject *o, const char *name, ub_object *obj)
-{
-    if (!PyDict_Check(o)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a dict of fractal parameters", name);
-        return -1;
-    }
-    if (check_keys(o, name, object_keys))
-        return -1;
-    memset(obj, 0, sizeof *obj);
-    /* Defaults: the paper's dendrite-like mu of the benchmark, the 1-i-j slice at k = 0. */
-    double mu[4] = {-0.2, 0.8, 0.0, 0.0}, theta = 0.0, basis[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
-    double origin[4] = {0, 0, 0, 0}, matrix[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
-    int kind = 0, mode = UB_EPSILON_PIXEL, normal_method = UB_NORMAL_GRADIENT_DISTANCE, color_mode = UB_COLOR_BASE;
-    double reflectivity = 0.0, ramp_scale = 1.0, ramp_offset = 0.0;
-    obj->normal_alpha = 1e-3;
-    obj->normal_delta = 1.0;
-    obj->max_iterations = 16;
-    obj->bailout = 4.0;
-    obj->epsilon = 1e-3;
-    obj->detail = 1.0;
-    obj->step_factor = 1.0;
-    obj->max_step = HUGE_VAL;
-    obj->max_steps = 2000;
-    obj->bisection_steps = 10;
-    /* Section 5 defaults: Fig. 4's stack of real c, the connectedness locus proper, the
-     * Sierpinski tetrahedron. */
-    obj->path_count = 2;
-    obj->path[0][0] = -1.5;
-    obj->path[1][0] = 0.25;
-    obj->stack_height = 2.0;
-    obj->cubic_component = UB_CUBIC_BOTH;
-    obj->extent = 2.0;
-    obj->ifs_depth = 6;
-    static const double tetra[4][3] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
-    obj->map_count = 4;
-    for (int i = 0; i < 4; i++)
-        for (int r = 0; r < 3; r++) {
-            obj->maps[i][r][r] = 0.5;
-            obj->maps[i][r][3] = 0.5 * tetra[i][r];
-        }
-    int component = UB_CUBIC_BOTH, count;
-    char sub[ERRBUF];
-    PyObject *v;
-#define FIELD(key) ((v = lookup(o, key)) != NULL && (snprintf(sub, sizeof sub, "%s.%s", name, key), 1))
-    if (FIELD("kind") && get_choice(v, sub, kind_names, &kind))
-        return -1;
-    if (FIELD("mu") && get_vector(v, sub, 4, mu))
-        return -1;
-    if (FIELD("theta") && get_double(v, sub, -1e6, 1e6, 0, &theta))
-        return -1;
-    if (FIELD("slice_basis") && get_matrix(v, sub, 4, 3, &basis[0][0]))
-        return -1;
-    if (FIELD("slice_origin") && get_vector(v, sub, 4, origin))
-        return -1;
-    if (FIELD("matrix") && get_matrix(v, sub, 4, 4, &matrix[0][0]))
-        return -1;
-    if (FIELD("max_iterations") && get_int(v, sub, 1, UB_MAX_ITERATIONS, &obj->max_iterations))
-        return -1;
-    if (FIELD("bailout") && get_double(v, sub, 1.0, UB_MAX_BAILOUT, 0, &obj->bailout))
-        return -1;
-    if (FIELD("epsilon_mode") && get_choice(v, sub, epsilon_modes, &mode))
-        return -1;
-    if (FIELD("epsilon") && get_double(v, sub, 1e-7, 1.0, 0, &obj->epsilon))
-        return -1;
-    if (FIELD("detail") && get_double(v, sub, 1e-3, 1e3, 0, &obj->detail))
-        return -1;
-    if (FIELD("step_factor") && get_double(v, sub, 0.01, 1.0, 0, &obj->step_factor))
-        return -1;
-    if (FIELD("max_step") && get_double(v, sub, 1e-6, HUGE_VAL, 1, &obj->max_step))
-        return -1;
-    if (FIELD("max_steps") && get_int(v, sub, 1, UB_MAX_MARCH_STEPS_LIMIT, &obj->max_steps))
-        return -1;
-    if (FIELD("bisection_steps") && get_int(v, sub, 0, UB_MAX_BISECTION, &obj->bisection_steps))
-        return -1;
-    obj->color[0] = obj->color[1] = obj->color[2] = 0.8f;
-    if (FIELD("color") && get_color(v, sub, 1e6, obj->color))
-        return -1;
-    if (FIELD("normal_method") && get_choice(v, sub, normal_methods, &normal_method))
-        return -1;
-    if (FIELD("normal_alpha") && get_double(v, sub, 1e-9, 1e3, 0, &obj->normal_alpha))
-        return -1;
-    if (FIELD("normal_delta") && get_double(v, sub, 0.0, 4.0, 0, &obj->normal_delta))
-        return -1;
-    if (FIELD("reflectivity") && get_double(v, sub, 0.0, 1.0, 0, &reflectivity))
-        return -1;
-    if (FIELD("color_mode") && get_choice(v, sub, color_modes, &color_mode))
-        return -1;
-    /* A colour ramp: RGB triples uniformly spaced over [0, 1]. */
-    if (FIELD("color_ramp") && v != Py_None) {
-        if ((count = get_sequence(v, sub, 2, UB_MAX_RAMP, "RGB colours", get_ramp_color, obj)) < 0)
-            return -1;
-        obj->ramp_size = count;
-    }
-    if (FIELD("ramp_scale") && get_double(v, sub, -1e6, 1e6, 0, &ramp_scale))
-        return -1;
-    if (FIELD("ramp_offset") && get_double(v, sub, -1e6, 1e6, 0, &ramp_offset))
-        return -1;
-    if (FIELD("path")) {
-        if ((count = get_sequence(v, sub, 1, UB_MAX_PATH, "(re, im) points", get_path_point, obj)) < 0)
-            return -1;
-        obj->path_count = count;
-    }
-    if (FIELD("stack_height") && get_double(v, sub, 1e-6, 1e6, 0, &obj->stack_height))
-        return -1;
-    if (FIELD("cubic_component") && get_choice(v, sub, cubic_components, &component))
-        return -1;
-    if (FIELD("extent") && get_double(v, sub, 1e-6, 1e3, 0, &obj->extent))
-        return -1;
-    if (FIELD("maps")) {
-        memset(obj->maps, 0, sizeof obj->maps);
-        if ((count = get_sequence(v, sub, 1, UB_MAX_IFS_MAPS, "3x4 affine maps", get_ifs_map, obj)) < 0)
-            return -1;
-        obj->map_count = count;
-    }
-    if (FIELD("ifs_depth") && get_int(v, sub, 0, UB_MAX_IFS_DEPTH, &obj->ifs_depth))
-        return -1;
-#undef FIELD
-    obj->cubic_component = (ub_cubic_component)component;
-    obj->normal_method = (ub_normal_method)normal_method;
-    obj->color_mode = (ub_color_mode)color_mode;
-    obj->reflectivity = (float)reflectivity;
-    obj->ramp_scale = (float)ramp_scale;
-    obj->ramp_offset = (float)ramp_offset;
-    for (int i = 0; i < 4; i++)
-        if (fabs(mu[i]) > 1e3 || fabs(origin[i]) > 1e3) {
-            PyErr_Format(PyExc_ValueError, "%s: mu and slice_origin components must be within [-1000, 1000]", name);
-            return -1;
-        }
-    for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 4; j++)
-            if (fabs(matrix[i][j]) > 1e9) {
-                PyErr_Format(PyExc_ValueError, "%s.matrix entries must be within [-1e9, 1e9]", name);
-                return -1;
-            }
-    obj->kind = (ub_fractal_kind)kind;
-    obj->epsilon_mode = (ub_epsilon_mode)mode;
-    memcpy(obj->mu, mu, sizeof mu);
-    const char *err = ub_object_prepare(obj, theta, basis, origin, matrix);
-    if (err) {
-        PyErr_Format(PyExc_ValueError, "%s: %s", name, err);
-        return -1;
-    }
-    return 0;
-}
-
-static int parse_objects(PyObject *seq, ub_object *objs, int *count)
-{
-    if (!PyList_Check(seq) && !PyTuple_Check(seq)) {
-        PyErr_SetString(PyExc_TypeError, "objects must be a list of dicts");
-        return -1;
-    }
-    Py_ssize_t n = PySequence_Size(seq);
-    if (n < 0)
-        return -1;
-    if (n > UB_MAX_OBJECTS) {
-        PyErr_Format(PyExc_ValueError, "objects: at most %d fractal objects per render", UB_MAX_OBJECTS);
-        return -1;
-    }
-    for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *item = PySequence_GetItem(seq, i);
-        if (!item)
-            return -1;
-        char name[64];
-        snprintf(name, sizeof name, "objects[%zd]", i);
-        int rc = parse_object(item, name, &objs[i]);
-        Py_DECREF(item);
-        if (rc)
-            return -1;
-    }
-    *count = (int)n;
-    return 0;
-}
-
-/* ---------------------------------------------------------------- shading */
-
-static const char *const shading_keys[] = {
-    "samples", "axle_light", "ambient", "shadows", "ao_strength", "ao_distance", "ao_samples", "reflection_depth",
-    "fog_density", "fog_color", "glow_strength", "glow_color", "sea", "lights", NULL,
-};
-static const char *const sea_keys[] = {"height", "wavelength", "amplitude", "color", "reflectivity", NULL};
-static const char *const light_keys[] = {"type", "position", "direction", "color", "radius", "spot_size",
-                                         "spot_blend", "cast_shadow", "soft_falloff", NULL};
-static const char *const light_types[] = {"point", "sun", "spot", "area", NULL};
-static const char *const shadow_modes[] = {"none", "hard", "soft", NULL};
-
-static int get_bool(PyObject *o, const char *name, int *out)
+static int read_bool(PyObject *o, const char *name, int *out)
 {
     if (!PyBool_Check(o)) {
         PyErr_Format(PyExc_TypeError, "%s must be True or False", name);
@@ -482,178 +101,372 @@ static int get_bool(PyObject *o, const char *name, int *out)
     return 0;
 }
 
-static int parse_light(PyObject *o, const char *name, ub_light *L)
+static int read_choice(PyObject *o, const char *name, const char *const *choices, int *out)
 {
-    if (!PyDict_Check(o)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a dict", name);
+    if (!PyUnicode_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be a string", name);
         return -1;
     }
-    if (check_keys(o, name, light_keys))
+    const char *s = PyUnicode_AsUTF8AndSize(o, NULL);
+    if (!s)
         return -1;
-    memset(L, 0, sizeof *L);
-    int type = UB_LIGHT_POINT;
-    double dir[3] = {0, 0, -1}, spot_size = M_PI / 4, spot_blend = 0.15;
-    L->color[0] = L->color[1] = L->color[2] = 1.0f;
-    L->cast_shadow = 1;
-    char sub[ERRBUF];
-    PyObject *v;
-#define FIELD(key) ((v = lookup(o, key)) != NULL && (snprintf(sub, sizeof sub, "%s.%s", name, key), 1))
-    if (FIELD("type") && get_choice(v, sub, light_types, &type))
+    char names[ERRBUF] = "";
+    for (int i = 0; choices[i]; i++) {
+        if (strcmp(s, choices[i]) == 0) {
+            *out = i;
+            return 0;
+        }
+        size_t used = strlen(names);
+        snprintf(names + used, sizeof names - used, "%s'%s'", i ? ", " : "", choices[i]);
+    }
+    PyErr_Format(PyExc_ValueError, "%s must be one of %s, got '%.64s'", name, names, s);
+    return -1;
+}
+
+static int read_string(PyObject *o, const char *name, char *out, size_t size)
+{
+    Py_ssize_t len;
+    const char *s = PyUnicode_Check(o) ? PyUnicode_AsUTF8AndSize(o, &len) : NULL;
+    if (!s) {
+        PyErr_Clear();
+        PyErr_Format(PyExc_TypeError, "%s must be a string", name);
         return -1;
-    if (FIELD("position") && get_vector(v, sub, 3, L->position))
+    }
+    if ((size_t)len >= size || memchr(s, 0, (size_t)len)) {
+        PyErr_Format(PyExc_ValueError, "%s must be a string of at most %d characters without NUL",
+                     name, (int)size - 1);
         return -1;
-    if (FIELD("direction") && get_vector(v, sub, 3, dir))
+    }
+    memcpy(out, s, (size_t)len + 1);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- sequences */
+
+/* A strong copy of sequence o as a tuple, or NULL with a TypeError saying `what` it must be. */
+static PyObject *snapshot(PyObject *o, const char *name, const char *what)
+{
+    if (!PySequence_Check(o) || PyUnicode_Check(o) || PyBytes_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be %s", name, what);
+        return NULL;
+    }
+    return PySequence_Tuple(o);
+}
+
+/* `cols` numbers (a scalar when cols is 0) into out. */
+static int read_vector(PyObject *o, const char *name, int cols, double lo, double hi, unsigned flags,
+                       const char *hint, double *out)
+{
+    if (cols == 0)
+        return read_double(o, name, lo, hi, flags, hint, out);
+    char what[64];
+    snprintf(what, sizeof what, "a sequence of %d numbers", cols);
+    PyObject *t = snapshot(o, name, what);
+    if (!t)
         return -1;
-    if (FIELD("color") && get_color(v, sub, 1e12, L->color))
+    int rc = 0;
+    if (PyTuple_Size(t) != cols) {
+        PyErr_Format(PyExc_ValueError, "%s must have %d components, got %zd", name, cols, PyTuple_Size(t));
+        rc = -1;
+    }
+    for (int i = 0; i < cols && !rc; i++) {
+        char sub[ERRBUF];
+        snprintf(sub, sizeof sub, "%s[%d]", name, i);
+        rc = read_double(PyTuple_GetItem(t, i), sub, lo, hi, flags, hint, &out[i]);
+    }
+    Py_DECREF(t);
+    return rc;
+}
+
+/* A value of the row's shape: a scalar (1 x 1), a vector (1 x cols) or a matrix given as a
+ * sequence of rows (numpy arrays, mathutils.Matrix, lists). */
+static int read_shaped(PyObject *o, const char *name, const ub_param *p, const char *hint, double *out)
+{
+    if (p->rows == 1)
+        return read_vector(o, name, p->cols == 1 ? 0 : p->cols, p->min, p->max, p->flags, hint, out);
+    char what[64];
+    snprintf(what, sizeof what, "a %dx%d matrix (a sequence of %d rows)", p->rows, p->cols, p->rows);
+    PyObject *t = snapshot(o, name, what);
+    if (!t)
         return -1;
-    if (FIELD("radius") && get_double(v, sub, 0.0, 1e9, 0, &L->radius))
+    int rc = 0;
+    if (PyTuple_Size(t) != p->rows) {
+        PyErr_Format(PyExc_ValueError, "%s must be a %dx%d matrix, got %zd rows", name, p->rows, p->cols,
+                     PyTuple_Size(t));
+        rc = -1;
+    }
+    for (int r = 0; r < p->rows && !rc; r++) {
+        char sub[ERRBUF];
+        snprintf(sub, sizeof sub, "%s[%d]", name, r);
+        rc = read_vector(PyTuple_GetItem(t, r), sub, p->cols, p->min, p->max, p->flags, hint, out + r * p->cols);
+    }
+    Py_DECREF(t);
+    return rc;
+}
+
+/* ---------------------------------------------------------------- sections */
+
+static int read_section(PyObject *o, const ub_where *where, const char *name, const ub_param_section *s,
+                        void *record, uint64_t *given);
+
+static void apply_defaults(const ub_param_section *s, void *record)
+{
+    memset(record, 0, s->record_size);
+    for (int i = 0; i < s->count; i++) {
+        const ub_param *p = &s->rows[i];
+        char *field = (char *)record + p->offset;
+        if (!p->defaults)
+            continue;
+        switch (p->type) {
+        case UB_PARAM_FLOAT:
+            memcpy(field, p->defaults, sizeof(double) * p->rows * p->cols);
+            break;
+        case UB_PARAM_INT:
+        case UB_PARAM_BOOL:
+        case UB_PARAM_CHOICE:
+            *(int *)field = (int)p->defaults[0];
+            break;
+        case UB_PARAM_LIST:
+            *(int *)((char *)record + p->count_offset) = p->default_items;
+            memcpy(field, p->defaults, sizeof(double) * p->rows * p->cols * p->default_items);
+            break;
+        default:
+            break;
+        }
+    }
+}
+
+static int read_list(PyObject *o, const char *name, const ub_param *p, const char *hint, void *record)
+{
+    char what[96];
+    if (p->items)
+        snprintf(what, sizeof what, "a sequence of dicts (%s parameters)", p->items->name);
+    else if (p->rows == 1)
+        snprintf(what, sizeof what, "a sequence of %d-number items", p->cols);
+    else
+        snprintf(what, sizeof what, "a sequence of %dx%d matrices", p->rows, p->cols);
+    PyObject *t = snapshot(o, name, what);
+    if (!t)
         return -1;
-    if (FIELD("spot_size") && get_double(v, sub, 0.0, M_PI, 0, &spot_size))
-        return -1;
-    if (FIELD("spot_blend") && get_double(v, sub, 0.0, 1.0, 0, &spot_blend))
-        return -1;
-    if (FIELD("cast_shadow") && get_bool(v, sub, &L->cast_shadow))
-        return -1;
-    if (FIELD("soft_falloff") && get_bool(v, sub, &L->soft_falloff))
-        return -1;
-#undef FIELD
-    for (int i = 0; i < 3; i++)
-        if (fabs(L->position[i]) > 1e9) {
-            PyErr_Format(PyExc_ValueError, "%s.position components must be within [-1e9, 1e9]", name);
+    Py_ssize_t n = PyTuple_Size(t);
+    int rc = 0;
+    if (n < p->min_items || n > p->max_items) {
+        PyErr_Format(PyExc_ValueError, "%s must hold %d to %d items, got %zd", name, p->min_items, p->max_items, n);
+        rc = -1;
+    }
+    char *items = (char *)record + p->offset;
+    for (Py_ssize_t i = 0; i < n && !rc; i++) {
+        char sub[ERRBUF];
+        snprintf(sub, sizeof sub, "%s[%zd]", name, i);
+        void *slot = items + i * p->item_size;
+        if (p->items) {
+            ub_where inner = {"", "", ""};
+            rc = read_section(PyTuple_GetItem(t, i), &inner, sub, p->items, slot, NULL);
+        } else {
+            rc = read_shaped(PyTuple_GetItem(t, i), sub, p, hint, slot);
+        }
+    }
+    Py_DECREF(t);
+    if (!rc)
+        *(int *)((char *)record + p->count_offset) = (int)n;
+    return rc;
+}
+
+static int read_value(PyObject *v, const char *name, const ub_param *p, const char *hint, void *record)
+{
+    char *field = (char *)record + p->offset;
+    switch (p->type) {
+    case UB_PARAM_FLOAT:
+        return read_shaped(v, name, p, hint, (double *)field);
+    case UB_PARAM_INT:
+        return read_int(v, name, p->min, p->max, (int *)field);
+    case UB_PARAM_BOOL:
+        return read_bool(v, name, (int *)field);
+    case UB_PARAM_CHOICE:
+        return read_choice(v, name, p->choices, (int *)field);
+    case UB_PARAM_STRING:
+        return read_string(v, name, field, UB_MAX_NAME);
+    case UB_PARAM_LIST:
+        return read_list(v, name, p, hint, record);
+    default:
+        return 0; /* UB_PARAM_CUSTOM: the caller reads it */
+    }
+}
+
+static const ub_param *find_row(const ub_param_section *s, const char *key, int *index)
+{
+    for (int i = 0; i < s->count; i++)
+        if (strcmp(s->rows[i].key, key) == 0) {
+            if (index)
+                *index = i;
+            return &s->rows[i];
+        }
+    return NULL;
+}
+
+/* Unknown keys are errors: a misspelt key would otherwise be silently ignored. */
+static int check_keys(PyObject *d, const char *name, const ub_param_section *s)
+{
+    PyObject *key, *value;
+    Py_ssize_t pos = 0;
+    while (PyDict_Next(d, &pos, &key, &value)) {
+        const char *k = PyUnicode_Check(key) ? PyUnicode_AsUTF8AndSize(key, NULL) : NULL;
+        if (!k) {
+            PyErr_Clear();
+            PyErr_Format(PyExc_TypeError, "%s keys must be strings", name);
             return -1;
         }
-    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-    if (!(len > 1e-12) || !isfinite(len)) {
-        PyErr_Format(PyExc_ValueError, "%s.direction must be a non-zero vector", name);
+        if (!find_row(s, k, NULL)) {
+            PyErr_Format(PyExc_ValueError, "%s has an unknown key '%.64s'", name, k);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* Reads dict o (None: all defaults) of section s into record through the table: defaults first,
+ * then every given key. `name` names the dict itself; its keys are named through `where`, which
+ * a row of type STRING called "name" replaces by the object's own name. Bit i of *given is set
+ * when row i was given (not None). */
+static int read_section(PyObject *o, const ub_where *where, const char *name, const ub_param_section *s,
+                        void *record, uint64_t *given)
+{
+    apply_defaults(s, record);
+    if (given)
+        *given = 0;
+    if (o == Py_None)
+        return 0;
+    if (!PyDict_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be a dict of %s parameters", name, s->name);
         return -1;
     }
-    for (int i = 0; i < 3; i++)
-        L->direction[i] = dir[i] / len;
-    L->type = (ub_light_type)type;
-    /* Blender's spot: spot_size is the full cone angle, spot_blend the fraction of the cone's
-     * cosine range over which it fades in. */
-    L->spot_cos_outer = cos(spot_size / 2);
-    L->spot_cos_inner = L->spot_cos_outer + (1.0 - L->spot_cos_outer) * spot_blend;
+    PyObject *d = PyDict_Copy(o);
+    if (!d)
+        return -1;
+    char named_path[ERRBUF];
+    ub_where w = where->path[0] ? *where : (ub_where){name, ".", where->hint};
+    int rc = check_keys(d, name, s);
+    for (int i = 0; i < s->count && !rc; i++) {
+        const ub_param *p = &s->rows[i];
+        char key_path[ERRBUF];
+        join(key_path, sizeof key_path, &w, p->key);
+        PyObject *v = PyDict_GetItemString(d, p->key); /* borrowed from our own copy */
+        if (!v) {
+            if (p->flags & UB_PARAM_REQUIRED) {
+                PyErr_Format(PyExc_ValueError, "%s needs '%s'", name, p->key);
+                rc = -1;
+            }
+            continue;
+        }
+        if (v == Py_None && (p->flags & UB_PARAM_NONE_OK))
+            continue;
+        rc = read_value(v, key_path, p, w.hint, record);
+        if (!rc && given)
+            *given |= (uint64_t)1 << i;
+        if (!rc && p->type == UB_PARAM_STRING && strcmp(p->key, "name") == 0 && ((char *)record)[p->offset]) {
+            snprintf(named_path, sizeof named_path, "fractal '%s'", (char *)record + p->offset);
+            w = (ub_where){named_path, ": ", " (check its keyframes and drivers)"};
+        }
+    }
+    Py_DECREF(d);
+    return rc;
+}
+
+static int was_given(const ub_param_section *s, uint64_t given, const char *key)
+{
+    int i = -1;
+    find_row(s, key, &i);
+    return i >= 0 && ((given >> i) & 1);
+}
+
+/* ---------------------------------------------------------------- camera, objects, shading */
+
+static int parse_camera(PyObject *o, ub_camera *cam)
+{
+    ub_camera_input in;
+    ub_where w = {"", "", ""};
+    if (read_section(o, &w, "camera", &ub_camera_section, &in, NULL))
+        return -1;
+    const char *err = ub_camera_from_input(cam, &in);
+    if (err) {
+        PyErr_SetString(PyExc_ValueError, err);
+        return -1;
+    }
     return 0;
+}
+
+/* One object dict -> the kernels' record; `name` is its path (objects[i], or object). */
+static int parse_object(PyObject *o, const char *name, ub_object *obj)
+{
+    ub_object_input *in = PyMem_Malloc(sizeof *in);
+    if (!in) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    ub_where w = {"", "", ""};
+    int rc = read_section(o, &w, name, &ub_object_section, in, NULL);
+    if (!rc) {
+        const char *err = ub_object_from_input(obj, in);
+        if (err) {
+            if (in->name[0])
+                PyErr_Format(PyExc_ValueError, "fractal '%s': %s", in->name, err);
+            else
+                PyErr_Format(PyExc_ValueError, "%s: %s", name, err);
+            rc = -1;
+        }
+    }
+    PyMem_Free(in);
+    return rc;
+}
+
+static int parse_objects(PyObject *seq, ub_object *objs, int *count)
+{
+    if (!PyList_Check(seq) && !PyTuple_Check(seq)) {
+        PyErr_SetString(PyExc_TypeError, "objects must be a list of dicts");
+        return -1;
+    }
+    PyObject *t = PySequence_Tuple(seq);
+    if (!t)
+        return -1;
+    Py_ssize_t n = PyTuple_Size(t);
+    int rc = 0;
+    if (n > UB_MAX_OBJECTS) {
+        PyErr_Format(PyExc_ValueError, "objects: at most %d fractal objects per render", UB_MAX_OBJECTS);
+        rc = -1;
+    }
+    for (Py_ssize_t i = 0; i < n && !rc; i++) {
+        char name[64];
+        snprintf(name, sizeof name, "objects[%zd]", i);
+        rc = parse_object(PyTuple_GetItem(t, i), name, &objs[i]);
+    }
+    Py_DECREF(t);
+    if (!rc)
+        *count = (int)n;
+    return rc;
 }
 
 static int parse_shading(PyObject *o, ub_shading *sh)
 {
+    ub_shading_input *in = PyMem_Malloc(sizeof *in);
+    if (!in) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    ub_where w = {"", "", ""};
     memset(sh, 0, sizeof *sh);
-    sh->samples = 1;
-    sh->axle_light = 1.0f;
-    sh->shadows = UB_SHADOWS_HARD;
-    sh->ao_distance = 0.5;
-    sh->ao_samples = 5;
-    if (!o || o == Py_None)
-        return 0;
-    if (!PyDict_Check(o)) {
-        PyErr_SetString(PyExc_TypeError, "shading must be a dict of shading settings or None");
-        return -1;
-    }
-    if (check_keys(o, "shading", shading_keys))
-        return -1;
-    char sub[ERRBUF];
-    PyObject *v;
-    double x;
-    int mode;
-#define FIELD(key) ((v = lookup(o, key)) != NULL && (snprintf(sub, sizeof sub, "shading.%s", key), 1))
-    if (FIELD("samples") && get_int(v, sub, 1, UB_MAX_SAMPLES, &sh->samples))
-        return -1;
-    if (FIELD("axle_light")) {
-        if (get_double(v, sub, 0.0, 1e6, 0, &x))
-            return -1;
-        sh->axle_light = (float)x;
-    }
-    if (FIELD("ambient") && get_color(v, sub, 1e6, sh->ambient))
-        return -1;
-    if (FIELD("shadows")) {
-        if (get_choice(v, sub, shadow_modes, &mode))
-            return -1;
-        sh->shadows = (ub_shadow_mode)mode;
-    }
-    if (FIELD("ao_strength")) {
-        if (get_double(v, sub, 0.0, 1.0, 0, &x))
-            return -1;
-        sh->ao_strength = (float)x;
-    }
-    if (FIELD("ao_distance") && get_double(v, sub, 1e-6, 1e6, 0, &sh->ao_distance))
-        return -1;
-    if (FIELD("ao_samples") && get_int(v, sub, 1, UB_MAX_AO_SAMPLES, &sh->ao_samples))
-        return -1;
-    if (FIELD("reflection_depth") && get_int(v, sub, 0, UB_MAX_REFLECTION_DEPTH, &sh->reflection_depth))
-        return -1;
-    if (FIELD("fog_density") && get_double(v, sub, 0.0, 1e6, 0, &sh->fog_density))
-        return -1;
-    if (FIELD("fog_color") && get_color(v, sub, 1e6, sh->fog_color))
-        return -1;
-    if (FIELD("glow_strength")) {
-        if (get_double(v, sub, 0.0, 1e6, 0, &x))
-            return -1;
-        sh->glow_strength = (float)x;
-    }
-    if (FIELD("glow_color") && get_color(v, sub, 1e6, sh->glow_color))
-        return -1;
-    if (FIELD("sea") && v != Py_None) {
-        PyObject *sea = v, *w;
-        if (!PyDict_Check(sea)) {
-            PyErr_SetString(PyExc_TypeError, "shading.sea must be a dict (height, wavelength, amplitude, color, "
-                                             "reflectivity) or None");
-            return -1;
-        }
-        if (check_keys(sea, "shading.sea", sea_keys))
-            return -1;
-        sh->sea = 1;
-        sh->sea_height = 0.0;
-        sh->sea_wavelength = 0.25;
-        sh->sea_amplitude = 0.01;
-        sh->sea_color[0] = 0.1f;
-        sh->sea_color[1] = 0.25f;
-        sh->sea_color[2] = 0.4f;
-        sh->sea_reflectivity = 0.5f;
-        if ((w = lookup(sea, "height")) && get_double(w, "shading.sea.height", -1e9, 1e9, 0, &sh->sea_height))
-            return -1;
-        if ((w = lookup(sea, "wavelength"))
-            && get_double(w, "shading.sea.wavelength", 1e-6, 1e9, 0, &sh->sea_wavelength))
-            return -1;
-        if ((w = lookup(sea, "amplitude"))
-            && get_double(w, "shading.sea.amplitude", 0.0, 1e9, 0, &sh->sea_amplitude))
-            return -1;
-        if ((w = lookup(sea, "color")) && get_color(w, "shading.sea.color", 1e6, sh->sea_color))
-            return -1;
-        if ((w = lookup(sea, "reflectivity"))) {
-            if (get_double(w, "shading.sea.reflectivity", 0.0, 1.0, 0, &x))
-                return -1;
-            sh->sea_reflectivity = (float)x;
+    int rc = read_section(o ? o : Py_None, &w, "shading", &ub_shading_section, in, NULL);
+    if (!rc) {
+        ub_shading_from_input(sh, in);
+        for (int i = 0; i < in->lights_count && !rc; i++) {
+            const char *err = ub_light_from_input(&sh->lights[i], &in->lights[i]);
+            if (err) {
+                PyErr_Format(PyExc_ValueError, "shading.lights[%d].%s", i, err);
+                rc = -1;
+            }
         }
     }
-    if (FIELD("lights")) {
-        if (!PyList_Check(v) && !PyTuple_Check(v)) {
-            PyErr_SetString(PyExc_TypeError, "shading.lights must be a list of dicts");
-            return -1;
-        }
-        Py_ssize_t n = PySequence_Size(v);
-        if (n < 0)
-            return -1;
-        if (n > UB_MAX_LIGHTS) {
-            PyErr_Format(PyExc_ValueError, "shading.lights: at most %d lights", UB_MAX_LIGHTS);
-            return -1;
-        }
-        for (Py_ssize_t i = 0; i < n; i++) {
-            PyObject *item = PySequence_GetItem(v, i);
-            if (!item)
-                return -1;
-            char name[64];
-            snprintf(name, sizeof name, "shading.lights[%zd]", i);
-            int rc = parse_light(item, name, &sh->lights[i]);
-            Py_DECREF(item);
-            if (rc)
-                return -1;
-        }
-        sh->light_count = (int)n;
-    }
-#undef FIELD
-    return 0;
+    PyMem_Free(in);
+    return rc;
 }
 
 /* ---------------------------------------------------------------- buffers */
@@ -744,112 +557,163 @@ static int poll_cb(void *data, double fraction)
     return stop;
 }
 
-static const char *const isa_names[] = {"auto", "avx2", "portable", NULL};
+
+/* The render keywords (render section) -> film window, stride, options. */
+static int parse_render_options(PyObject *kw, const ub_camera *cam, const ub_shading *shading, ub_film *film,
+                                ub_render_options *opt)
+{
+    ub_render_input in;
+    uint64_t given;
+    ub_where w = {"", "", ""};
+    if (read_section(kw, &w, "", &ub_render_section, &in, &given))
+        return -1;
+    opt->threads = in.threads;
+    opt->tile_size = in.tile_size;
+    opt->isa = (ub_isa)in.simd;
+    opt->poll_interval_ns = (long)(in.poll_interval * 1e9);
+    /* Finite is not enough: 1e300 would become an infinite float32 in every missed pixel. */
+    if (in.background[3] > 1.0) {
+        PyErr_SetString(PyExc_ValueError,
+                        "background must be (r, g, b, alpha) with colour within [0, 1e6], alpha within [0, 1]");
+        return -1;
+    }
+    for (int i = 0; i < 4; i++)
+        film->background[i] = (float)in.background[i];
+    film->step = in.stride;
+    film->x0 = film->y0 = 0;
+    film->w = (cam->width + film->step - 1) / film->step;
+    film->h = (cam->height + film->step - 1) / film->step;
+    if (was_given(&ub_render_section, given, "window")) {
+        const double *win = in.window;
+        for (int i = 0; i < 4; i++)
+            if (win[i] != floor(win[i])) {
+                PyErr_SetString(PyExc_ValueError, "window must be 4 integers (x, y, width, height)");
+                return -1;
+            }
+        /* With a stride, width and height count the window's pixels on the stride's grid. */
+        if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] + film->step * (win[2] - 1) >= cam->width
+            || win[1] + film->step * (win[3] - 1) >= cam->height) {
+            PyErr_Format(PyExc_ValueError,
+                         "window (x, y, width, height) must lie inside the %dx%d image with a positive size",
+                         cam->width, cam->height);
+            return -1;
+        }
+        film->x0 = (int)win[0];
+        film->y0 = (int)win[1];
+        film->w = (int)win[2];
+        film->h = (int)win[3];
+    }
+    if (was_given(&ub_render_section, given, "sample_range")) {
+        const double *range = in.sample_range;
+        if (range[0] != floor(range[0]) || range[1] != floor(range[1]) || range[0] < 0 || range[1] < 1
+            || range[0] + range[1] > shading->samples) {
+            PyErr_Format(PyExc_ValueError,
+                         "sample_range must be 2 integers (first, count) with 0 <= first, 1 <= count and "
+                         "first + count <= shading samples (%d)", shading->samples);
+            return -1;
+        }
+        opt->first_sample = (int)range[0];
+        opt->sample_count = (int)range[1];
+    }
+    return 0;
+}
+
+/* passes: {pass name: float32 array of the film's shape, or None}; views[id] acquired where have[id]. */
+static int parse_passes(PyObject *passes_o, ub_film *film, Py_buffer *views, int *have)
+{
+    if (!PyDict_Check(passes_o)) {
+        PyErr_SetString(PyExc_TypeError, "passes must be a dict of pass name -> float32 array");
+        return -1;
+    }
+    PyObject *items = PyDict_Items(passes_o); /* strong references: buffers outlive any callback */
+    if (!items)
+        return -1;
+    int rc = 0;
+    for (Py_ssize_t i = 0; i < PyList_Size(items) && !rc; i++) {
+        PyObject *pair = PyList_GetItem(items, i);
+        PyObject *key = PyTuple_GetItem(pair, 0), *value = PyTuple_GetItem(pair, 1);
+        const char *k = PyUnicode_Check(key) ? PyUnicode_AsUTF8AndSize(key, NULL) : NULL;
+        if (!k) {
+            PyErr_Clear();
+            PyErr_SetString(PyExc_TypeError, "passes keys must be pass names (strings)");
+            rc = -1;
+            break;
+        }
+        int id = -1;
+        for (int p = 0; p < UB_PASS_COUNT; p++)
+            if (strcmp(k, ub_pass_names[p]) == 0)
+                id = p;
+        if (id < 0) {
+            PyErr_Format(PyExc_ValueError, "passes: unknown pass '%.64s'", k);
+            rc = -1;
+        } else if (value != Py_None && !have[id]) {
+            char name[96];
+            snprintf(name, sizeof name, "passes['%s']", k);
+            rc = get_float_buffer(value, name, film->h, film->w, ub_pass_channels[id], &views[id]);
+            if (!rc) {
+                have[id] = 1;
+                film->pass[id] = views[id].buf;
+            }
+        }
+    }
+    Py_DECREF(items);
+    return rc;
+}
+
+/* Footprint of a pixel at the nearest hit (the depth pass) over the largest world bounding radius:
+ * below UB_PRECISION_LIMIT float32 no longer resolves the surface (README, Precision). None
+ * without a depth pass, a hit or an object that the slice meets. */
+static PyObject *footprint_ratio(const ub_camera *cam, const ub_object *objs, int count, const ub_film *film)
+{
+    const float *depth = film->pass[UB_PASS_DEPTH];
+    double radius = 0.0, nearest = HUGE_VAL;
+    for (int k = 0; k < count; k++)
+        if (objs[k].bound_radius > 0.0)
+            radius = fmax(radius, objs[k].bound_radius * objs[k].sigma_max);
+    if (depth)
+        for (size_t i = 0; i < (size_t)film->w * film->h; i++)
+            if (depth[i] < 0.5f * UB_BACKGROUND_DEPTH)
+                nearest = fmin(nearest, depth[i]);
+    if (!(radius > 0.0) || nearest == HUGE_VAL)
+        Py_RETURN_NONE;
+    return PyFloat_FromDouble(ub_pixel_footprint(cam, nearest) / radius);
+}
 
 static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *kwlist[] = {"camera", "objects", "passes", "window", "threads", "tile_size", "simd",
                              "progress", "cancel", "background", "poll_interval", "shading", "stride",
                              "sample_range", NULL};
-    PyObject *camera_o, *objects_o, *passes_o, *window_o = Py_None, *progress = Py_None, *cancel = Py_None;
-    PyObject *threads_o = NULL, *tile_o = NULL, *simd_o = NULL, *background_o = NULL, *poll_o = NULL;
-    PyObject *shading_o = NULL, *stride_o = NULL, *sample_range_o = Py_None;
+    PyObject *camera_o, *objects_o, *passes_o, *progress = Py_None, *cancel = Py_None, *shading_o = NULL;
+    PyObject *kw[8] = {NULL};
     if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
-                                     &window_o, &threads_o, &tile_o, &simd_o, &progress, &cancel,
-                                     &background_o, &poll_o, &shading_o, &stride_o, &sample_range_o))
+                                     &kw[0], &kw[1], &kw[2], &kw[3], &progress, &cancel, &kw[4], &kw[5],
+                                     &shading_o, &kw[6], &kw[7]))
         return NULL;
+    static const char *const kw_names[8] = {"window", "threads", "tile_size", "simd", "background",
+                                            "poll_interval", "stride", "sample_range"};
 
     ub_camera cam;
     ub_object *objs = PyMem_Calloc(UB_MAX_OBJECTS, sizeof(ub_object));
     ub_shading *shading = PyMem_Calloc(1, sizeof(ub_shading));
-    if (!objs || !shading) {
-        PyMem_Free(objs);
-        PyMem_Free(shading);
-        return PyErr_NoMemory();
-    }
+    PyObject *render_kw = PyDict_New();
     Py_buffer views[UB_PASS_COUNT];
     int have[UB_PASS_COUNT] = {0};
     PyObject *result = NULL;
     int count = 0;
     ub_film film;
     memset(&film, 0, sizeof film);
-    ub_render_options opt = {0, 32, UB_ISA_AUTO, NULL, NULL, 10000000L};
-
-    if (parse_camera(camera_o, &cam) || parse_objects(objects_o, objs, &count) || parse_shading(shading_o, shading))
+    ub_render_options opt = {0, 32, UB_ISA_AUTO, NULL, NULL, 10000000L, 0, 0};
+    if (!objs || !shading || !render_kw) {
+        PyErr_NoMemory();
         goto done;
-    film.step = 1;
-    if (stride_o && get_int(stride_o, "stride", 1, 4096, &film.step))
+    }
+    for (int i = 0; i < 8; i++)
+        if (kw[i] && PyDict_SetItemString(render_kw, kw_names[i], kw[i]))
+            goto done;
+    if (parse_camera(camera_o, &cam) || parse_objects(objects_o, objs, &count) || parse_shading(shading_o, shading)
+        || parse_render_options(render_kw, &cam, shading, &film, &opt))
         goto done;
-    film.x0 = 0;
-    film.y0 = 0;
-    film.w = (cam.width + film.step - 1) / film.step;
-    film.h = (cam.height + film.step - 1) / film.step;
-    if (window_o != Py_None) {
-        double win[4];
-        if (get_vector(window_o, "window", 4, win))
-            goto done;
-        for (int i = 0; i < 4; i++)
-            if (win[i] != floor(win[i])) {
-                PyErr_SetString(PyExc_ValueError, "window must be 4 integers (x, y, width, height)");
-                goto done;
-            }
-        /* With a stride, width and height count the window's pixels on the stride's grid. */
-        if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] + film.step * (win[2] - 1) >= cam.width
-            || win[1] + film.step * (win[3] - 1) >= cam.height) {
-            PyErr_Format(PyExc_ValueError,
-                         "window (x, y, width, height) must lie inside the %dx%d image with a positive size",
-                         cam.width, cam.height);
-            goto done;
-        }
-        film.x0 = (int)win[0];
-        film.y0 = (int)win[1];
-        film.w = (int)win[2];
-        film.h = (int)win[3];
-    }
-    if (threads_o && get_int(threads_o, "threads", 0, UB_MAX_THREADS, &opt.threads))
-        goto done;
-    if (tile_o && get_int(tile_o, "tile_size", 1, 4096, &opt.tile_size))
-        goto done;
-    if (simd_o) {
-        int isa;
-        if (get_choice(simd_o, "simd", isa_names, &isa))
-            goto done;
-        opt.isa = (ub_isa)isa;
-    }
-    if (poll_o) {
-        double pi;
-        if (get_double(poll_o, "poll_interval", 1e-4, 1.0, 0, &pi))
-            goto done;
-        opt.poll_interval_ns = (long)(pi * 1e9);
-    }
-    if (background_o) {
-        double bg[4];
-        if (get_vector(background_o, "background", 4, bg))
-            goto done;
-        /* Finite is not enough: 1e300 would become an infinite float32 in every missed pixel. */
-        for (int i = 0; i < 4; i++) {
-            if (!(bg[i] >= 0.0 && bg[i] <= (i == 3 ? 1.0 : 1e6))) {
-                PyErr_SetString(PyExc_ValueError,
-                                "background must be (r, g, b, alpha) with colour within [0, 1e6], alpha within [0, 1]");
-                goto done;
-            }
-            film.background[i] = (float)bg[i];
-        }
-    }
-    if (sample_range_o != Py_None) {
-        double range[2];
-        if (get_vector(sample_range_o, "sample_range", 2, range))
-            goto done;
-        if (range[0] != floor(range[0]) || range[1] != floor(range[1]) || range[0] < 0 || range[1] < 1
-            || range[0] + range[1] > shading->samples) {
-            PyErr_Format(PyExc_ValueError,
-                         "sample_range must be 2 integers (first, count) with 0 <= first, 1 <= count and "
-                         "first + count <= shading samples (%d)", shading->samples);
-            goto done;
-        }
-        opt.first_sample = (int)range[0];
-        opt.sample_count = (int)range[1];
-    }
     if (progress != Py_None && !PyCallable_Check(progress)) {
         PyErr_SetString(PyExc_TypeError, "progress must be callable (fraction -> cancel?) or None");
         goto done;
@@ -858,38 +722,8 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
         PyErr_SetString(PyExc_TypeError, "cancel must have an is_set() method (e.g. threading.Event) or be None");
         goto done;
     }
-    if (!PyDict_Check(passes_o)) {
-        PyErr_SetString(PyExc_TypeError, "passes must be a dict of pass name -> float32 array");
+    if (parse_passes(passes_o, &film, views, have))
         goto done;
-    }
-    {
-        PyObject *key, *value;
-        Py_ssize_t pos = 0;
-        while (PyDict_Next(passes_o, &pos, &key, &value)) {
-            const char *k = PyUnicode_Check(key) ? PyUnicode_AsUTF8AndSize(key, NULL) : NULL;
-            if (!k) {
-                PyErr_Clear();
-                PyErr_SetString(PyExc_TypeError, "passes keys must be pass names (strings)");
-                goto done;
-            }
-            int id = -1;
-            for (int i = 0; i < UB_PASS_COUNT; i++)
-                if (strcmp(k, ub_pass_names[i]) == 0)
-                    id = i;
-            if (id < 0) {
-                PyErr_Format(PyExc_ValueError, "passes: unknown pass '%s'", k);
-                goto done;
-            }
-            if (value == Py_None)
-                continue;
-            char name[64];
-            snprintf(name, sizeof name, "passes['%s']", k);
-            if (get_float_buffer(value, name, film.h, film.w, ub_pass_channels[id], &views[id]))
-                goto done;
-            have[id] = 1;
-            film.pass[id] = views[id].buf;
-        }
-    }
 
     {
         volatile int cancel_flag = 0;
@@ -912,16 +746,20 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
             PyErr_SetString(PyExc_ValueError, err);
             goto done;
         }
-        result = Py_BuildValue("{s:K,s:K,s:K,s:d,s:i,s:s,s:O}", "rays", (unsigned long long)stats.counters.rays,
+        PyObject *ratio = footprint_ratio(&cam, objs, count, &film);
+        if (!ratio)
+            goto done;
+        result = Py_BuildValue("{s:K,s:K,s:K,s:d,s:i,s:s,s:O,s:N}", "rays", (unsigned long long)stats.counters.rays,
                                "steps", (unsigned long long)stats.counters.steps, "iterations",
                                (unsigned long long)stats.counters.iterations, "seconds", stats.seconds, "threads",
                                stats.threads, "simd", stats.isa, "cancelled",
-                               stats.cancelled ? Py_True : Py_False);
+                               stats.cancelled ? Py_True : Py_False, "footprint_ratio", ratio);
     }
 done:
     for (int i = 0; i < UB_PASS_COUNT; i++)
         if (have[i])
             PyBuffer_Release(&views[i]);
+    Py_XDECREF(render_kw);
     PyMem_Free(objs);
     PyMem_Free(shading);
     return result;
@@ -954,7 +792,7 @@ static Py_ssize_t get_points(PyObject *o, Py_buffer *view)
 static int get_simd(PyObject *o)
 {
     int isa = UB_ISA_AUTO, use_avx2;
-    if (o && get_choice(o, "simd", isa_names, &isa))
+    if (o && read_choice(o, "simd", ub_isa_names, &isa))
         return -1;
     const char *err = ub_resolve_isa((ub_isa)isa, &use_avx2);
     if (err) {
@@ -1070,19 +908,25 @@ static PyObject *py_describe(PyObject *self, PyObject *args)
     PyObject *obj_o;
     if (!PyArg_ParseTuple(args, "O", &obj_o))
         return NULL;
-    ub_object obj;
-    if (parse_object(obj_o, "object", &obj))
-        return NULL;
-    return Py_BuildValue("{s:s,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}", "kind",
-                         kind_names[obj.kind], "exact", obj.exact ? Py_True : Py_False, "step_factor", obj.step_factor,
-                         "max_step", obj.max_step, "bound_center",
-                         obj.bound_center[0], obj.bound_center[1], obj.bound_center[2], "bound_radius",
-                         obj.bound_radius, "bailout", obj.bailout, "sigma_min", obj.sigma_min, "slice_origin",
-                         obj.slice_origin[0], obj.slice_origin[1], obj.slice_origin[2], obj.slice_origin[3],
-                         "slice_basis", obj.slice_basis[0][0], obj.slice_basis[0][1], obj.slice_basis[0][2],
-                         obj.slice_basis[1][0], obj.slice_basis[1][1], obj.slice_basis[1][2], obj.slice_basis[2][0],
-                         obj.slice_basis[2][1], obj.slice_basis[2][2], obj.slice_basis[3][0], obj.slice_basis[3][1],
-                         obj.slice_basis[3][2]);
+    ub_object *o = PyMem_Malloc(sizeof *o);
+    if (!o)
+        return PyErr_NoMemory();
+    PyObject *result = NULL;
+    if (!parse_object(obj_o, "object", o)) {
+        const double(*b)[3] = o->slice_basis;
+        double world_radius = o->bound_radius > 0.0 ? o->bound_radius * o->sigma_max : o->bound_radius;
+        result = Py_BuildValue("{s:s,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}",
+                               "kind", ub_kind_names[o->kind], "exact", o->exact ? Py_True : Py_False,
+                               "step_factor", o->step_factor, "max_step", o->max_step, "bound_center",
+                               o->bound_center[0], o->bound_center[1], o->bound_center[2], "bound_radius",
+                               o->bound_radius, "world_bound_radius", world_radius, "bailout", o->bailout,
+                               "sigma_min", o->sigma_min, "sigma_max", o->sigma_max, "slice_origin",
+                               o->slice_origin[0], o->slice_origin[1], o->slice_origin[2], o->slice_origin[3],
+                               "slice_basis", b[0][0], b[0][1], b[0][2], b[1][0], b[1][1], b[1][2], b[2][0], b[2][1],
+                               b[2][2], b[3][0], b[3][1], b[3][2]);
+    }
+    PyMem_Free(o);
+    return result;
 }
 
 static PyObject *py_cpu_info(PyObject *self, PyObject *noargs)
@@ -1097,7 +941,9 @@ static PyMethodDef methods[] = {
      "-> stats dict. stride s renders the image pixels (x + s i, y + s j) of window (x, y, columns, rows) "
      "only; sample_range (first, count) renders those samples into buffers holding the earlier ones' sum. "
      "After a cancel (stats['cancelled']) the passes are partial: with several samples, undivided sums of "
-     "the samples done"},
+     "the samples done. stats['footprint_ratio']: a pixel's footprint at the nearest hit of the depth pass "
+     "over the largest world bounding radius (None without depth or hits); below PRECISION_LIMIT float32 no "
+     "longer resolves the surface. Keywords and object, shading and light keys: see PARAMETERS"},
     {"normals", (PyCFunction)(void (*)(void))py_normals, METH_VARARGS | METH_KEYWORDS,
      "normals(object, points, t, normals, *, simd='auto'): object-space unit normals at object-space points "
      "by the object's normal_method (zbuffer: the distance gradient), gradient step alpha * t**delta"},
@@ -1108,10 +954,131 @@ static PyMethodDef methods[] = {
      "camera_ray(camera, x, y) -> (origin, direction, t_min, t_max) of the ray through full-image pixel "
      "coordinates (x, y); pixel centres are at +0.5"},
     {"describe", py_describe, METH_VARARGS,
-     "describe(object) -> derived values: bounding ball, effective bailout, slice after the theta rotation"},
+     "describe(object) -> derived values: bounding ball (object space, and its radius in the world), effective "
+     "bailout, singular values of the placement, slice after the theta rotation"},
     {"cpu_info", py_cpu_info, METH_NOARGS, "cpu_info() -> {'cpus': n, 'avx2_fma': bool}"},
     {NULL, NULL, 0, NULL},
 };
+
+/* ---------------------------------------------------------------- PARAMETERS */
+
+/* A default or range value for Python: a number, a tuple for vectors, a tuple of rows for
+ * matrices (infinities as float('inf')). */
+static PyObject *shaped_value(const double *v, int rows, int cols)
+{
+    if (rows == 1 && cols == 1)
+        return PyFloat_FromDouble(v[0]);
+    if (rows == 1) {
+        PyObject *t = PyTuple_New(cols);
+        for (int i = 0; t && i < cols; i++)
+            PyTuple_SetItem(t, i, PyFloat_FromDouble(v[i]));
+        return t;
+    }
+    PyObject *t = PyTuple_New(rows);
+    for (int r = 0; t && r < rows; r++)
+        PyTuple_SetItem(t, r, shaped_value(v + r * cols, 1, cols));
+    return t;
+}
+
+static PyObject *row_default(const ub_param *p)
+{
+    static const double zeros[16] = {0};
+    const double *d = p->defaults ? p->defaults : zeros;
+    switch (p->type) {
+    case UB_PARAM_FLOAT:
+        if (p->flags & UB_PARAM_REQUIRED || (p->flags & UB_PARAM_NONE_OK && !p->defaults))
+            Py_RETURN_NONE;
+        return shaped_value(d, p->rows, p->cols);
+    case UB_PARAM_INT:
+        if (p->flags & UB_PARAM_REQUIRED)
+            Py_RETURN_NONE;
+        return PyLong_FromLong((long)d[0]);
+    case UB_PARAM_BOOL:
+        return PyBool_FromLong((long)d[0]);
+    case UB_PARAM_CHOICE:
+        return PyUnicode_FromString(p->choices[(int)d[0]]);
+    case UB_PARAM_STRING:
+        return PyUnicode_FromString("");
+    case UB_PARAM_LIST: {
+        if (p->flags & UB_PARAM_NONE_OK && !p->default_items)
+            Py_RETURN_NONE;
+        PyObject *l = PyList_New(p->default_items);
+        for (int i = 0; l && i < p->default_items; i++)
+            PyList_SetItem(l, i, shaped_value(d + i * p->rows * p->cols, p->rows, p->cols));
+        return l;
+    }
+    default:
+        Py_RETURN_NONE;
+    }
+}
+
+static const char *const type_names[] = {"float", "int", "bool", "choice", "string", "list", "custom"};
+
+static PyObject *row_dict(const ub_param *p)
+{
+    PyObject *choices = Py_None, *shape;
+    Py_INCREF(Py_None);
+    if (p->choices) {
+        int n = 0;
+        while (p->choices[n])
+            n++;
+        Py_DECREF(choices);
+        choices = PyTuple_New(n);
+        for (int i = 0; choices && i < n; i++)
+            PyTuple_SetItem(choices, i, PyUnicode_FromString(p->choices[i]));
+    }
+    shape = p->rows == 1 && p->cols == 1 ? PyTuple_New(0) : p->rows == 1 ? Py_BuildValue("(i)", p->cols)
+                                                                        : Py_BuildValue("(ii)", p->rows, p->cols);
+    int numeric = p->type == UB_PARAM_FLOAT || p->type == UB_PARAM_INT || (p->type == UB_PARAM_LIST && !p->items);
+    PyObject *d = Py_BuildValue("{s:s,s:N,s:N,s:N,s:N,s:N,s:s}", "type", type_names[p->type], "shape", shape,
+                                "min", numeric ? PyFloat_FromDouble(p->min) : Py_NewRef(Py_None),
+                                "max", numeric ? PyFloat_FromDouble(p->max) : Py_NewRef(Py_None),
+                                "default", row_default(p), "choices", choices, "description", p->description);
+    if (d && p->type == UB_PARAM_LIST) {
+        PyObject *extra = Py_BuildValue("{s:i,s:i,s:s}", "min_items", p->min_items, "max_items", p->max_items,
+                                        "items", p->items ? p->items->name : "");
+        if (!extra || PyDict_Update(d, extra)) {
+            Py_XDECREF(extra);
+            Py_DECREF(d);
+            return NULL;
+        }
+        Py_DECREF(extra);
+    }
+    return d;
+}
+
+/* PARAMETERS[section][key] = {type, shape, min, max, default, choices, description (, list
+ * fields)}, read-only (mappingproxy), for the add-on's properties and the fuzzer. */
+static PyObject *parameters_dict(void)
+{
+    PyObject *all = PyDict_New();
+    for (int s = 0; all && ub_param_sections[s]; s++) {
+        const ub_param_section *sec = ub_param_sections[s];
+        PyObject *rows = PyDict_New();
+        for (int i = 0; rows && i < sec->count; i++) {
+            PyObject *row = row_dict(&sec->rows[i]);
+            if (!row || PyDict_SetItemString(rows, sec->rows[i].key, row)) {
+                Py_XDECREF(row);
+                Py_CLEAR(rows);
+                break;
+            }
+            Py_DECREF(row);
+        }
+        PyObject *proxy = rows ? PyDictProxy_New(rows) : NULL;
+        Py_XDECREF(rows);
+        if (!proxy || PyDict_SetItemString(all, sec->name, proxy)) {
+            Py_XDECREF(proxy);
+            Py_CLEAR(all);
+        } else {
+            Py_DECREF(proxy);
+        }
+    }
+    if (!all)
+        return NULL;
+    PyObject *proxy = PyDictProxy_New(all);
+    Py_DECREF(all);
+    return proxy;
+}
 
 static struct PyModuleDef moduledef = {
     PyModuleDef_HEAD_INIT, "_native", "Unbound's native ray marcher for 3-D deterministic fractals.", -1, methods,
@@ -1135,6 +1102,15 @@ PyMODINIT_FUNC PyInit__native(void)
         PyDict_SetItemString(chans, ub_pass_names[i], c);
         Py_XDECREF(c);
     }
+    PyObject *parameters = parameters_dict();
+    if (!parameters) {
+        Py_DECREF(names);
+        Py_DECREF(chans);
+        Py_DECREF(m);
+        return NULL;
+    }
+    PyModule_AddObject(m, "PARAMETERS", parameters);
+    PyModule_AddObject(m, "PRECISION_LIMIT", PyFloat_FromDouble(UB_PRECISION_LIMIT));
     PyModule_AddObject(m, "PASSES", names);
     PyModule_AddObject(m, "PASS_CHANNELS", chans);
     PyModule_AddObject(m, "BACKGROUND_DEPTH", PyFloat_FromDouble(UB_BACKGROUND_DEPTH));

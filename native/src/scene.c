@@ -1,6 +1,7 @@
 /* Per-object set-up: the slice of eq. 5-6, the bounding ball of section 3.4, transforms. */
-#include "scene.h"
+#include "params.h"
 #include "quat.h"
+#include "scene.h"
 
 #include <math.h>
 #include <string.h>
@@ -209,6 +210,7 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
     double lmin, lmax;
     ub_sym3_eigen_range(ata, &lmin, &lmax);
     obj->sigma_min = sqrt(fmax(lmin, 0.0));
+    obj->sigma_max = sqrt(fmax(lmax, 0.0));
     if (!(obj->sigma_min > 1e-9))
         return "object_to_world must be invertible (zero scale?)";
 
@@ -223,4 +225,95 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
             obj->max_step = fmin(obj->max_step, UB_EMPIRICAL_MAX_STEP * obj->bound_radius * obj->sigma_min);
     }
     return NULL;
+}
+
+const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
+{
+    memset(obj, 0, sizeof *obj);
+    obj->kind = (ub_fractal_kind)in->kind;
+    memcpy(obj->mu, in->mu, sizeof obj->mu);
+    obj->max_iterations = in->max_iterations;
+    obj->bailout = in->bailout;
+    obj->epsilon_mode = (ub_epsilon_mode)in->threshold_mode;
+    obj->epsilon = in->epsilon;
+    obj->detail = in->detail;
+    obj->step_factor = in->step_factor;
+    obj->max_step = in->max_step;
+    obj->max_steps = in->max_steps;
+    obj->bisection_steps = in->bisection_steps;
+    for (int c = 0; c < 3; c++)
+        obj->color[c] = (float)in->color[c];
+    obj->normal_method = (ub_normal_method)in->normal_method;
+    obj->normal_alpha = in->normal_alpha;
+    obj->normal_delta = in->normal_delta;
+    obj->reflectivity = (float)in->reflectivity;
+    obj->color_mode = (ub_color_mode)in->color_mode;
+    obj->ramp_size = in->color_ramp_count;
+    for (int i = 0; i < in->color_ramp_count; i++)
+        for (int c = 0; c < 3; c++)
+            obj->ramp[i][c] = (float)in->color_ramp[i][c];
+    obj->ramp_scale = (float)in->ramp_scale;
+    obj->ramp_offset = (float)in->ramp_offset;
+    obj->path_count = in->path_count;
+    memcpy(obj->path, in->path, sizeof obj->path);
+    obj->stack_height = in->stack_height;
+    obj->cubic_component = (ub_cubic_component)in->cubic_component;
+    obj->extent = in->extent;
+    obj->map_count = in->maps_count;
+    memcpy(obj->maps, in->maps, sizeof obj->maps);
+    obj->ifs_depth = in->ifs_depth;
+    return ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
+}
+
+const char *ub_light_from_input(ub_light *L, const ub_light_input *in)
+{
+    memset(L, 0, sizeof *L);
+    L->type = (ub_light_type)in->type;
+    memcpy(L->position, in->position, sizeof L->position);
+    for (int c = 0; c < 3; c++)
+        L->color[c] = (float)in->color[c];
+    L->radius = in->radius;
+    L->cast_shadow = in->cast_shadow;
+    L->soft_falloff = in->soft_falloff;
+    const double *dir = in->direction;
+    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    if (!(len > 1e-12) || !isfinite(len))
+        return "direction must be a non-zero vector";
+    for (int i = 0; i < 3; i++)
+        L->direction[i] = dir[i] / len;
+    /* Blender's spot: spot_size is the full cone angle, spot_blend the fraction of the cone's
+     * cosine range over which it fades in. */
+    L->spot_cos_outer = cos(in->spot_size / 2);
+    L->spot_cos_inner = L->spot_cos_outer + (1.0 - L->spot_cos_outer) * in->spot_blend;
+    return NULL;
+}
+
+static void to_float3(float out[3], const double in[3])
+{
+    for (int c = 0; c < 3; c++)
+        out[c] = (float)in[c];
+}
+
+void ub_shading_from_input(ub_shading *sh, const ub_shading_input *in)
+{
+    /* The lights are converted one by one by the caller (ub_light_from_input names a bad one). */
+    sh->samples = in->samples;
+    sh->axle_light = (float)in->axle_light;
+    to_float3(sh->ambient, in->ambient);
+    sh->shadows = (ub_shadow_mode)in->shadows;
+    sh->ao_strength = (float)in->ao_strength;
+    sh->ao_distance = in->ao_distance;
+    sh->ao_samples = in->ao_samples;
+    sh->reflection_depth = in->reflection_depth;
+    sh->fog_density = in->fog_density;
+    to_float3(sh->fog_color, in->fog_color);
+    sh->glow_strength = (float)in->glow_strength;
+    to_float3(sh->glow_color, in->glow_color);
+    sh->sea = in->use_sea;
+    sh->sea_height = in->sea_height;
+    sh->sea_wavelength = in->sea_wavelength;
+    sh->sea_amplitude = in->sea_amplitude;
+    to_float3(sh->sea_color, in->sea_color);
+    sh->sea_reflectivity = (float)in->sea_reflectivity;
+    sh->light_count = in->lights_count;
 }

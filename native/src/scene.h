@@ -95,6 +95,7 @@ typedef struct {
      * is at least d * sigma_min in world space, so steps scaled by it never overshoot even
      * under non-uniform scale. */
     double sigma_min;
+    double sigma_max;          /* largest singular value: object radius r is at most r sigma_max in the world */
     /* Bounding ball of K_mu cut by the slice, in object space (centre, radius); radius < 0:
      * the slice misses the set entirely. */
     double bound_center[3];
@@ -285,6 +286,8 @@ const char *ub_ifs_prepare(ub_object *obj);
 double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth);
 const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
                               const double projection[4][4]);
+/* World-space width of one pixel at ray distance t (the smaller side of a non-square pixel). */
+double ub_pixel_footprint(const ub_camera *cam, double t);
 /* Ray through the centre of full-image pixel (px, py): world origin, unit direction, t range. */
 void ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
                    double *t_min, double *t_max);

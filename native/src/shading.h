@@ -2,7 +2,7 @@
  * ambient occlusion from the distance estimate, and the sea of Fig. 5. Included by kernel.h. */
 
 /* World-space distance estimate of the union of the scene's objects at world points. */
-static vf UB_FN(scene_distance)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, const double p[3][UB_LANES])
+static vf scene_distance(const ub_scene *sc, const ub_de_params *dps, const double p[3][UB_LANES])
 {
     vf best = v_set1(HUGE_VALF);
     for (int k = 0; k < sc->object_count; k++) {
@@ -10,8 +10,8 @@ static vf UB_FN(scene_distance)(const ub_scene *sc, const UB_FN(ub_de_params) *d
         if (o->bound_radius < 0.0)
             continue;
         vf q[4], d, it;
-        UB_FN(quaternion_lanes)(o, p, q);
-        UB_FN(de)(&dps[k], q[0], q[1], q[2], q[3], &d, &it);
+        quaternion_lanes(o, p, q);
+        de(&dps[k], q[0], q[1], q[2], q[3], &d, &it);
         best = v_min(v_mul(d, v_set1((float)o->sigma_min)), best);
     }
     return best;
@@ -22,7 +22,7 @@ static vf UB_FN(scene_distance)(const ub_scene *sc, const UB_FN(ub_de_params) *d
  * boundary d() is about half the true distance (exactly (1+h) log(1+h) / 2 >= h/2 off the unit
  * ball), so 2 d(p + h n) >= h there and the occlusion term max(0, 1 - 2 d / h) vanishes. In a
  * crease the estimate stays small and the term grows; nearer samples weigh more (2^-i). */
-static void UB_FN(ambient_occlusion)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, int lanes,
+static void ambient_occlusion(const ub_scene *sc, const ub_de_params *dps, int lanes,
                                      const double p[3][UB_LANES], const float n[3][UB_LANES], float ao[UB_LANES])
 {
     const ub_shading *sh = sc->shading;
@@ -34,7 +34,7 @@ static void UB_FN(ambient_occlusion)(const ub_scene *sc, const UB_FN(ub_de_param
             for (int c = 0; c < 3; c++)
                 pts[c][l] = p[c][l] + h * n[c][l];
         float d[UB_LANES];
-        v_store(d, UB_FN(scene_distance)(sc, dps, pts));
+        v_store(d, scene_distance(sc, dps, pts));
         float w = ldexpf(1.0f, -i);
         wsum += w;
         for (int l = 0; l < UB_LANES; l++) {
@@ -51,7 +51,7 @@ static void UB_FN(ambient_occlusion)(const ub_scene *sc, const UB_FN(ub_de_param
 /* The sea of Fig. 5: "waves are periodic functions of the distance estimate". The plane stays
  * flat; the wave height w = A sin(2 pi D / lambda), D the scene's distance estimate on the
  * plane, bends its normal: n = normalize(-dw/dx, -dw/dy, 1), by central differences. */
-static void UB_FN(sea_normal)(const ub_scene *sc, const UB_FN(ub_de_params) *dps, const double p[3][UB_LANES],
+static void sea_normal(const ub_scene *sc, const ub_de_params *dps, const double p[3][UB_LANES],
                               float n[3][UB_LANES])
 {
     const ub_shading *sh = sc->shading;
@@ -64,7 +64,7 @@ static void UB_FN(sea_normal)(const ub_scene *sc, const UB_FN(ub_de_params) *dps
             pts[1][l] = p[1][l] + (s == 2 ? e : (s == 3 ? -e : 0.0));
             pts[2][l] = sh->sea_height;
         }
-        v_store(w[s], UB_FN(scene_distance)(sc, dps, pts));
+        v_store(w[s], scene_distance(sc, dps, pts));
     }
     for (int l = 0; l < UB_LANES; l++) {
         double k = 2.0 * M_PI / sh->sea_wavelength, a = sh->sea_amplitude;
@@ -82,7 +82,7 @@ static void UB_FN(sea_normal)(const ub_scene *sc, const UB_FN(ub_de_params) *dps
 /* Direction to a light from p, its distance, the irradiance scale it sends (before the
  * surface's cosine) and the tangent of its apparent angular radius. Returns 0 if it sends
  * nothing to p. */
-static int UB_FN(light_sample)(const ub_light *L, const double p[3], double l[3], double *dist, double E[3],
+static int light_sample(const ub_light *L, const double p[3], double l[3], double *dist, double E[3],
                                double *tan_angle)
 {
     if (L->type == UB_LIGHT_SUN) {
@@ -124,7 +124,7 @@ static int UB_FN(light_sample)(const ub_light *L, const double p[3], double l[3]
 }
 
 /* Colour of a fractal hit: the base colour, or the ramp at the orbit trap or iteration count. */
-static void UB_FN(albedo)(const ub_object *o, float trap, float iterations, float out[3])
+static void albedo(const ub_object *o, float trap, float iterations, float out[3])
 {
     if (o->color_mode == UB_COLOR_BASE || o->ramp_size < 2) {
         for (int c = 0; c < 3; c++)

@@ -22,7 +22,7 @@ Checks (tolerances stated where they are asserted):
 2. Silhouette IoU (alpha > 0.5) against the unit mesh >= IOU_MIN. Measured: 1.0 in every case but
    the pixel-aspect-2 one (0.9989: a handful of pixels whose centre lies within the mesh's 1.5e-4
    sagitta of the true silhouette, which the mesh misses and the true ball does not). A border
-   one pixel off, as with the double-precision border fixed in engine.image_window, gave 0.94.
+   one pixel off, as with the double-precision border fixed in export.image_window, gave 0.94.
 3. Sandwich, a sharper test of the camera: the unit ball lies between the mesh scaled by
    1 - BAND (inside the ball) and by 1 + BAND (containing it), so Unbound's silhouette must
    contain the inner mesh's and lie inside the outer mesh's, and its Depth must lie between the

@@ -138,7 +138,7 @@ def random_object(g):
         [[1, 0, 0, g.real()], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
         "max_iterations": lambda: g.count(1, 40, extreme=(0, -1, 10000, 10001, 2 ** 63)),
         "bailout": lambda: g.real(1, 100),
-        "epsilon_mode": lambda: g.pick(["pixel", "fixed", "tiny"]),
+        "threshold_mode": lambda: g.pick(["pixel", "fixed", "tiny"]),
         "epsilon": lambda: g.real(1e-5, 0.1),
         "detail": lambda: g.real(0.1, 8),
         "step_factor": lambda: g.real(0.05, 1),

@@ -24,7 +24,7 @@ import unbound_core as uc  # noqa: E402
 # fog, glow, a reflective sea), and one object of each kind: shared by the tests that compare whole
 # renders byte for byte (determinism, progressive refinement).
 HEAVY_SHADING = dict(samples=2, shadows="soft", reflection_depth=2, ao_strength=0.5, ao_samples=3, glow_strength=0.5,
-                     fog_density=0.1, sea=dict(height=-1.2, reflectivity=0.3),
+                     fog_density=0.1, fog_color=(0.0, 0.0, 0.0), glow_color=(0.0, 0.0, 0.0), use_sea=True, sea_height=-1.2, sea_reflectivity=0.3,
                      lights=[dict(type="area", position=(2.0, -2.0, 3.0), radius=0.4),
                              dict(type="spot", position=(-2.0, -2.0, 2.0), direction=(1.0, 1.0, -1.0))])
 KIND_OBJECTS = {

@@ -29,7 +29,16 @@ OBJECT_CASES = [
     (dict(mu=(0, INF, 0, 0)), ValueError, r"objects\[0\]\.mu\[1\] must be finite"),
     (dict(mu=(0, 0, 0)), ValueError, r"objects\[0\]\.mu must have 4 components"),
     (dict(mu="abcd"), TypeError, r"objects\[0\]\.mu must be a sequence"),
-    (dict(mu=(1e9, 0, 0, 0)), ValueError, r"mu and slice_origin"),
+    (dict(mu=(1e9, 0, 0, 0)), ValueError, r"objects\[0\]\.mu\[0\] must be in \[-1000, 1000\], got 1e\+09"),
+    (dict(slice_origin=(0, 0, 0, -2e3)), ValueError, r"objects\[0\]\.slice_origin\[3\] must be in \[-1000, 1000\]"),
+    (dict(color=(0.5, 2e6, 0.5)), ValueError, r"objects\[0\]\.color\[1\] must be in \[0, 1e\+06\]"),
+    (dict(name="Ghost", theta=NAN), ValueError,
+     r"^fractal 'Ghost': theta must be finite \(check its keyframes and drivers\)$"),
+    (dict(name="Ghost", mu=(0, 0, NAN, 0)), ValueError, r"^fractal 'Ghost': mu\[2\] must be finite \(check"),
+    (dict(name="Ghost", matrix=[[0, 0, 0, 0]] * 3 + [[0, 0, 0, 1]]), ValueError,
+     r"^fractal 'Ghost': object_to_world must be invertible"),
+    (dict(name=3), TypeError, r"objects\[0\]\.name must be a string"),
+    (dict(name="x" * 64), ValueError, r"objects\[0\]\.name must be a string of at most 63 characters"),
     (dict(theta=NAN), ValueError, r"objects\[0\]\.theta must be finite"),
     (dict(max_iterations=0), ValueError, r"objects\[0\]\.max_iterations must be in \[1, 10000\]"),
     (dict(max_iterations=-5), ValueError, r"max_iterations"),
@@ -47,7 +56,7 @@ OBJECT_CASES = [
     (dict(max_step=NAN), ValueError, r"max_step must be finite"),
     (dict(max_steps=0), ValueError, r"max_steps"),
     (dict(bisection_steps=-1), ValueError, r"bisection_steps"),
-    (dict(epsilon_mode="tiny"), ValueError, r"epsilon_mode must be one of"),
+    (dict(threshold_mode="tiny"), ValueError, r"threshold_mode must be one of"),
     (dict(kind="mandelbox"), ValueError, r"kind must be one of"),
     (dict(color=(1, 1)), ValueError, r"color must have 3 components"),
     (dict(slice_basis=[[1, 0, 0], [0, 1, 0], [0, 0, 2], [0, 0, 0]]), ValueError, r"orthonormal"),
@@ -163,3 +172,74 @@ def test_one_dimensional_outputs_reject_empty_columns():
         uc.estimate({}, pts, full, empty)
     with pytest.raises(ValueError, match=r"t must have shape \(1000,\)"):
         uc.normals({}, pts, empty, np.zeros((1000, 3), np.float32))
+
+
+class Hostile:
+    """A number whose conversion runs arbitrary Python: it empties or changes the container it
+    was read from (issue 16, defect 1: the parser once kept borrowed references across it)."""
+
+    def __init__(self, victim, value=0.5):
+        self.victim, self.value = victim, value
+
+    def __float__(self):
+        if isinstance(self.victim, dict):
+            self.victim.clear()
+        else:
+            del self.victim[:]
+        import gc
+        gc.collect()
+        return self.value
+
+
+def test_values_that_mutate_their_containers_are_read_safely(camera):
+    obj = dict(mu=[-0.2, 0.8, 0.0, 0.0], theta=0.0)
+    obj["theta"] = Hostile(obj)  # clears the object dict while its keys are being read
+    uc.describe(obj)
+    cam = dict(camera)
+    cam["matrix"] = [list(row) for row in cam["matrix"]]
+    cam["matrix"][0][0] = Hostile(cam)  # clears the camera dict while its matrix is read
+    passes = {"depth": np.zeros((48, 64, 1), np.float32)}
+    uc.render(cam, [dict(mu=(0.0, 0.0, 0.0, 0.0))], passes)
+    row = [0.0, 0.0, 1.0]
+    row[1] = Hostile(row, 0.0)  # empties the sequence being read
+    basis = [[1, 0, 0], [0, 1, 0], row, [0, 0, 0]]
+    uc.describe(dict(slice_basis=basis))
+    shading = dict(samples=1, lights=[dict(type="sun", direction=(0, 0, -1))])
+    shading["ambient"] = (Hostile(shading, 0.1), 0.1, 0.1)  # clears the shading dict
+    uc.render(camera, [dict(mu=(0.0, 0.0, 0.0, 0.0))], passes, shading=shading)
+    assert cam == {} and shading == {}  # the conversions did run
+
+
+def test_table_defaults_are_the_defaults_the_core_uses(camera):
+    """An object, shading and keywords spelt out with PARAMETERS' defaults render the same bytes as
+    the empty dicts: the table is what the parser applies."""
+    def defaults(section, skip=()):
+        return {k: v["default"] for k, v in uc.PARAMETERS[section].items()
+                if k not in skip and v["type"] != "custom" and v["default"] is not None}
+    obj = defaults("object", skip=("name",))
+    shading = defaults("shading")
+    shading["lights"] = [defaults("light")]
+    keywords = defaults("render")
+    plain = {n: np.zeros((48, 64, uc.PASS_CHANNELS[n]), np.float32) for n in uc.PASSES}
+    spelt = {n: np.zeros_like(a) for n, a in plain.items()}
+    uc.render(camera, [{}], plain, shading=dict(lights=[{}]))
+    uc.render(camera, [obj], spelt, shading=shading, **keywords)
+    for n in plain:
+        assert plain[n].tobytes() == spelt[n].tobytes(), n
+
+
+def test_parameters_table_is_complete_and_read_only():
+    import types
+    assert isinstance(uc.PARAMETERS, types.MappingProxyType)
+    assert set(uc.PARAMETERS) == {"object", "camera", "shading", "light", "render"}
+    for section, rows in uc.PARAMETERS.items():
+        assert isinstance(rows, types.MappingProxyType)
+        for key, row in rows.items():
+            assert row["description"], (section, key)
+            assert row["type"] in {"float", "int", "bool", "choice", "string", "list", "custom"}
+            if row["type"] == "choice":
+                assert row["default"] in row["choices"], (section, key)
+            if row["type"] in {"float", "int"} and isinstance(row["default"], (int, float)):
+                assert row["min"] <= row["default"] <= row["max"], (section, key)
+    with pytest.raises(TypeError):
+        uc.PARAMETERS["object"]["mu"] = {}

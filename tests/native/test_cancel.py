@@ -14,7 +14,7 @@ from conftest import SANITIZED, alloc_passes, make_camera
 pytestmark = pytest.mark.skipif(SANITIZED, reason="timing: the sanitizers slow the core several-fold")
 
 HEAVY_OBJECT = dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=60, detail=2.0, reflectivity=0.5)
-HEAVY_SHADING = dict(shadows="soft", reflection_depth=2, sea=dict(height=-1.1, reflectivity=0.4),
+HEAVY_SHADING = dict(shadows="soft", reflection_depth=2, use_sea=True, sea_height=-1.1, sea_reflectivity=0.4,
                      lights=[dict(type="area", position=(2.0, -2.0, 3.0), radius=0.5, color=(3.0, 3.0, 3.0))])
 BUDGET_S = 0.1
 # When to cancel, as fractions of the uncancelled render's time.

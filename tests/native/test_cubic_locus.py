@@ -80,7 +80,7 @@ def test_no_ray_passes_through(component):
     locus (critical orbits bounded for ITERS steps) hits, never beyond it; the hits lie where the
     float64 orbit first comes within the threshold shell (d < eps) for nearly every ray."""
     cam = make_camera(32, 24, eye=(-2.2, -3.4, 2.0), target=(0, 0, 0), fov_y=0.75)
-    o = obj(component, epsilon_mode="fixed", epsilon=2e-3)
+    o = obj(component, threshold_mode="fixed", epsilon=2e-3)
     passes, _ = render(cam, [o], ["alpha", "position"])
 
     def classify(p):

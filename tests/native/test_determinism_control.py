@@ -115,7 +115,7 @@ def test_gil_released_during_render():
 
 def test_union_of_two_objects_takes_nearest():
     cam = make_camera(64, 48, eye=(0.0, -4.0, 0.0), target=(0, 0, 0))
-    ball = dict(mu=(0, 0, 0, 0), max_iterations=30, epsilon_mode="fixed", epsilon=1e-4)
+    ball = dict(mu=(0, 0, 0, 0), max_iterations=30, threshold_mode="fixed", epsilon=1e-4)
     left = dict(ball, matrix=[[0.6, 0, 0, -0.5], [0, 0.6, 0, 0], [0, 0, 0.6, 0], [0, 0, 0, 1]])
     right = dict(ball, matrix=[[0.6, 0, 0, 0.5], [0, 0.6, 0, -0.8], [0, 0, 0.6, 0], [0, 0, 0, 1]])
     a, _ = render(cam, [left], ["depth", "alpha"])

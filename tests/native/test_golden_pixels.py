@@ -47,7 +47,7 @@ def scenes():
                              dict(window=(13, 7, 41, 29)))
     out["soft-sun-4-samples"] = (cam, [julia], dict(shading=SOFT_SUN))
     out["fog-glow"] = (cam, [julia], dict(shading=FOG_GLOW, background=(0.2, 0.3, 0.4, 1.0)))
-    out["fixed-threshold-slice"] = (cam, [dict(mu=(-0.08, 0.0, -0.83, -0.025), epsilon_mode="fixed",
+    out["fixed-threshold-slice"] = (cam, [dict(mu=(-0.08, 0.0, -0.83, -0.025), threshold_mode="fixed",
                                                epsilon=2e-3, theta=1.9, max_iterations=12,
                                                slice_basis=[[1, 0, 0], [0, 0.8, 0.6], [0, -0.6, 0.8], [0, 0, 0]],
                                                slice_origin=[0.0, 0.0, 0.0, 0.1], step_factor=0.8,
@@ -60,10 +60,7 @@ def scenes():
                                                                                  direction=(0, 1, -1),
                                                                                  spot_size=1.0, spot_blend=0.3)])))
     out["sea-reflections"] = (cam, [dict(julia, reflectivity=0.5)],
-                              dict(shading=dict(reflection_depth=3, sea=dict(height=-0.9, wavelength=0.3,
-                                                                              amplitude=0.02,
-                                                                              color=(0.1, 0.3, 0.5),
-                                                                              reflectivity=0.6))))
+                              dict(shading=dict(reflection_depth=3, use_sea=True, sea_height=-0.9, sea_wavelength=0.3, sea_amplitude=0.02, sea_color=(0.1, 0.3, 0.5), sea_reflectivity=0.6)))
     return out
 
 

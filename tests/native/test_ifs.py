@@ -134,7 +134,7 @@ def test_hits_are_the_leaf_balls(name, depth):
     # The Koch curve is thin: a closer view.
     eye = (0.3, -2.2, 0.9) if name == "koch" else (-1.8, -3.6, 1.6)
     cam = make_camera(40, 30, eye=eye, target=tuple(system.center), fov_y=0.75)
-    obj = dict(kind="ifs", maps=SYSTEMS[name], ifs_depth=depth, epsilon_mode="fixed", epsilon=eps)
+    obj = dict(kind="ifs", maps=SYSTEMS[name], ifs_depth=depth, threshold_mode="fixed", epsilon=eps)
     passes, _ = render(cam, [obj], ["alpha", "position"])
     origin, direction = (a.reshape(-1, 3) for a in pixel_rays(cam))
     t_set = ray_entry(origin, direction, centres, radii)

@@ -53,7 +53,7 @@ def test_constant_path_from_above_is_the_filled_julia_set():
     cam = dict(matrix=uc.look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
                projection=uc.orthographic(3.2, 1.0, 0.1, 100.0), width=96, height=96)
     obj = dict(kind="julia_stack", path=[(c.real, c.imag)], stack_height=HEIGHT, max_iterations=ITERS,
-               epsilon_mode="fixed", epsilon=1e-4)
+               threshold_mode="fixed", epsilon=1e-4)
     passes, _ = render(cam, [obj], ["alpha", "depth", "position"])
     xy = passes["position"][..., :2]
     # Pixel centres in the object's plane, from the native rays' own origins (orthographic).
@@ -93,7 +93,7 @@ def test_no_ray_passes_through(name):
     where the float64 form of the empirical estimate first drops below the threshold."""
     path = PATHS[name]
     cam = make_camera(32, 24, eye=(-3.2, -5.2, 3.0), target=(0, 0, -0.1), fov_y=0.7)
-    obj = dict(kind="julia_stack", path=path, stack_height=HEIGHT, max_iterations=ITERS, epsilon_mode="fixed",
+    obj = dict(kind="julia_stack", path=path, stack_height=HEIGHT, max_iterations=ITERS, threshold_mode="fixed",
                epsilon=2e-3)
     passes, _ = render(cam, [obj], ["alpha", "position"])
     bound = uc.describe(obj)

@@ -88,7 +88,7 @@ def test_no_ray_passes_through(bisection):
     float64 estimate first drops below the fixed threshold 2e-3 for nearly every ray."""
     cam = PASSTHROUGH_CAMERA
     obj = dict(kind="quaternion_mandelbrot", max_iterations=ITERS, slice_basis=PASSTHROUGH_BASIS.tolist(),
-               epsilon_mode="fixed", epsilon=2e-3, bisection_steps=bisection)
+               threshold_mode="fixed", epsilon=2e-3, bisection_steps=bisection)
     passes, _ = render(cam, [obj], ["alpha", "position"])
     t_solid, t_shell = passthrough_reference()
     check_no_passthrough(cam, passes, t_solid, t_shell, slack=2e-3, agree_tol=0.02, agree_fraction=0.95)

@@ -69,7 +69,7 @@ def dense_reference(name):
 @pytest.mark.parametrize("name", list(CASES))
 def test_native_hit_not_beyond_first_dense_hit(name, bisection):
     """With refinement off the marching alone is checked; with it on, the refined hit too."""
-    obj = dict(mu=CASES[name], max_iterations=ITERATIONS, epsilon_mode="fixed", epsilon=EPS,
+    obj = dict(mu=CASES[name], max_iterations=ITERATIONS, threshold_mode="fixed", epsilon=EPS,
                bisection_steps=bisection)
     passes, _ = render(CAMERA, [obj], ["alpha", "position"])
     worst = []

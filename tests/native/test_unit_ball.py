@@ -12,7 +12,7 @@ BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32)
 @pytest.mark.parametrize("ortho", [False, True])
 def test_unit_ball_depth_normal_position(mode, ortho):
     cam = make_camera(96, 72, ortho_height=3.0 if ortho else None)
-    obj = dict(BALL, epsilon_mode=mode, epsilon=1e-4)
+    obj = dict(BALL, threshold_mode=mode, epsilon=1e-4)
     passes, stats = render(cam, [obj])
     origin, direction, forward = rays_float64(cam)
     t, closest = sphere_hits(origin, direction)
@@ -68,7 +68,7 @@ def test_ball_moved_and_scaled_by_object_matrix():
     """The object matrix places the fractal: a ball of radius 0.5 centred at (0.3, 0.2, -0.1)."""
     cam = make_camera(80, 60)
     m = [[0.5, 0, 0, 0.3], [0, 0.5, 0, 0.2], [0, 0, 0.5, -0.1], [0, 0, 0, 1]]
-    passes, _ = render(cam, [dict(BALL, matrix=m, epsilon_mode="fixed", epsilon=1e-4)])
+    passes, _ = render(cam, [dict(BALL, matrix=m, threshold_mode="fixed", epsilon=1e-4)])
     origin, direction, forward = rays_float64(cam)
     t, closest = sphere_hits(origin, direction, (0.3, 0.2, -0.1), 0.5)
     inner = closest < 0.48

@@ -20,7 +20,7 @@ def passes_reach_compositor_and_exr(S, mod):
     exr = S.render_to_exr(scene)
     # The writer's data equals a direct native render of the same camera (rows: EXR top-down).
     import unbound_core
-    from bl_ext.user_default.unbound import engine
+    from bl_ext.user_default.unbound import export
     dg = bpy.context.evaluated_depsgraph_get()
 
     class Cam:  # the camera description needs only these two engine methods
@@ -29,9 +29,9 @@ def passes_reach_compositor_and_exr(S, mod):
         def camera_model_matrix(self, ob, use_spherical_stereo=False):
             return ob.matrix_world
 
-    cam = engine.camera_description(Cam(), dg, 80, 60)
+    cam = export.camera_description(Cam(), dg, 80, 60)
     bufs = {n: np.empty((60, 80, c), np.float32) for n, c in unbound_core.PASS_CHANNELS.items()}
-    unbound_core.render(cam, engine.fractal_objects(dg), bufs)
+    unbound_core.render(cam, export.fractal_objects(dg), bufs)
     diffs = {}
     for name, chans, native in [("Depth", "Z", "depth"), ("Iterations", "X", "iterations"),
                                 ("Steps", "X", "steps"), ("Distance", "X", "distance"),
@@ -67,8 +67,8 @@ def keyframes_and_drivers_reach_the_render(S, mod):
     for f in (1, 2, 3):
         scene.frame_set(f)
         dg = bpy.context.evaluated_depsgraph_get()
-        seen.append(mod.engine.fractal_objects(dg)[0]["mu"][0])
-        seen.append(mod.engine.fractal_objects(dg)[0]["theta"])
+        seen.append(mod.export.fractal_objects(dg)[0]["mu"][0])
+        seen.append(mod.export.fractal_objects(dg)[0]["theta"])
     scene.frame_set(3)
     ball = S.render_to_exr(scene, "ball.exr")
     scene.frame_set(1)

@@ -86,7 +86,7 @@ def curve_path(S, mod):
     ob.unbound.path_curve = path_ob
     poly = S.render_to_exr(scene, "poly.exr")["ViewLayer.Combined.R"]
     dg = bpy.context.evaluated_depsgraph_get()
-    from bl_ext.user_default.unbound import properties
+    from bl_ext.user_default.unbound import export
     bez = bpy.data.curves.new("Bez", 'CURVE')
     bs = bez.splines.new('BEZIER')
     bs.bezier_points.add(1)
@@ -97,7 +97,7 @@ def curve_path(S, mod):
     scene.collection.objects.link(bez_ob)
     ob.unbound.path_curve = bez_ob
     dg = bpy.context.evaluated_depsgraph_get()
-    bez_path = properties.c_path(ob.unbound, dg)
+    bez_path = export.c_path(ob.unbound, dg)
     bezier = S.render_to_exr(scene, "bez.exr")["ViewLayer.Combined.R"]
     errors = []
     for target in (None, scene.camera):

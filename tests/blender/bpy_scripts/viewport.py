@@ -8,11 +8,11 @@ import numpy as np
 
 
 def camera_view(scene, window=None):
-    from bl_ext.user_default.unbound import engine
+    from bl_ext.user_default.unbound import export
     dg = bpy.context.evaluated_depsgraph_get()
     r = scene.render
     w, h = r.resolution_x, r.resolution_y
-    cam = engine.camera_dict(dg, scene.camera.evaluated_get(dg), scene.camera.matrix_world, w, h)
+    cam = export.camera_dict(dg, scene.camera.evaluated_get(dg), scene.camera.matrix_world, w, h)
     return dict(camera=cam, window=window or (0, 0, w, h), error=None)
 
 

@@ -1,0 +1,323 @@
+"""Blender -> the native core: the whole translation, in one place, for final renders (engine.py)
+and the Rendered viewport (viewport.py) alike.
+
+Every Object.unbound / Scene.unbound property that is a core key has the key's name and is passed
+through as it is (enum identifiers lower-cased); the table of the core (unbound_core.PARAMETERS)
+gives both their limits and defaults, and tests/blender/test_parameter_table.py holds the two
+together. What is built here is only what Blender describes in its own terms: the camera, the
+slice frame from the slice offset and rotation, a Julia stack's c-path, IFS maps from location,
+rotation and scale, a colour ramp from a texture, the lights, the world's colour.
+
+Nothing is validated here: the core checks every value once, and names the object in its
+messages (each object dict carries its `name`)."""
+import math
+
+import numpy as np
+from mathutils import Euler, Matrix, Vector
+
+from . import utils
+
+
+class RenderError(Exception):
+    """A problem the user can fix; reported in Blender's UI, never as a traceback."""
+
+
+# ---------------------------------------------------------------------------- camera and image
+
+def camera_description(engine, depsgraph, width, height):
+    """The native camera dict: Blender's own camera matrix and projection matrix, so focal length,
+    sensor size and fit, shift, clipping, orthographic scale and pixel aspect all come for free."""
+    cam_ob = evaluated_camera(engine.camera_override or depsgraph.scene.camera, depsgraph)
+    return camera_dict(depsgraph, cam_ob, engine.camera_model_matrix(cam_ob, use_spherical_stereo=False),
+                       width, height)
+
+
+def evaluated_camera(cam_ob, depsgraph):
+    """The evaluated camera object to render through, or a RenderError a user can act on."""
+    if cam_ob is None:
+        raise RenderError("The scene has no camera: add one or set Scene > Camera")
+    cam_ob = cam_ob.evaluated_get(depsgraph)
+    if cam_ob.type != 'CAMERA':
+        raise RenderError("The scene camera '%s' is not a camera object" % cam_ob.name)
+    if cam_ob.data.type not in {'PERSP', 'ORTHO'}:
+        raise RenderError("the camera '%s' is %s; only perspective and orthographic cameras are supported"
+                          % (cam_ob.name, {'PANO': "panoramic"}.get(cam_ob.data.type, cam_ob.data.type.lower())))
+    return cam_ob
+
+
+def camera_dict(depsgraph, cam_ob, matrix, width, height):
+    """The native camera dict of camera object `cam_ob` (evaluated) placed at `matrix`, for an
+    image of width x height pixels."""
+    r = depsgraph.scene.render
+    projection = cam_ob.calc_matrix_camera(depsgraph, x=width, y=height, scale_x=r.pixel_aspect_x,
+                                           scale_y=r.pixel_aspect_y)
+    return native_camera(matrix, projection, cam_ob.data.type == 'PERSP', cam_ob.data.clip_start,
+                         cam_ob.data.clip_end, width, height)
+
+
+def native_camera(matrix, projection, perspective, near, far, width, height):
+    """The native camera dict of a camera-to-world matrix and Blender's projection matrix."""
+    if not far > near:
+        raise RenderError("The clip start (%g) must be less than the clip end (%g)" % (near, far))
+    projection = [list(row) for row in projection]
+    # The depth row again in double precision, from the clip distances it was made of (Blender's
+    # perspective_m4 / orthographic_m4): in the float32 matrix a clip start of 1e-6 with a clip end
+    # of 100 rounds -(f + n) / (f - n) to -1, which puts the clip end at infinity.
+    if perspective:
+        projection[2][2:] = [-(far + near) / (far - near), -2.0 * near * far / (far - near)]
+    else:
+        projection[2][2:] = [-2.0 / (far - near), -(far + near) / (far - near)]
+    return dict(matrix=[list(row) for row in matrix], projection=projection, width=width, height=height)
+
+
+def image_window(scene):
+    """Full image size and the rendered window (x, y, width, height) in pixels: the render border
+    when one is set, as Blender computes it: border fraction times size in float32 (C's
+    `border.xmin * winx`), truncated. Double precision differs: 0.7f * 100 is 69.99999 in double
+    but rounds to 70.0 in float32, and a one-pixel error shifts and shrinks the border."""
+    r = scene.render
+    width = r.resolution_x * r.resolution_percentage // 100
+    height = r.resolution_y * r.resolution_percentage // 100
+    if width < 1 or height < 1:
+        raise RenderError("The output resolution is %d x %d pixels: nothing to render" % (width, height))
+    if not r.use_border:
+        return width, height, (0, 0, width, height)
+    fw, fh = np.float32(width), np.float32(height)
+    x0, x1 = int(np.float32(r.border_min_x) * fw), int(np.float32(r.border_max_x) * fw)
+    y0, y1 = int(np.float32(r.border_min_y) * fh), int(np.float32(r.border_max_y) * fh)
+    if x1 <= x0 or y1 <= y0:
+        raise RenderError("The render border is empty")
+    return width, height, (x0, y0, x1 - x0, y1 - y0)
+
+
+# ---------------------------------------------------------------------------- fractal objects
+
+# Object.unbound properties that are core keys of the same name, passed as they are (enums
+# lower-cased). The rest of the object dict is built below from Blender's own terms.
+OBJECT_KEYS = ("kind", "mu", "theta", "max_iterations", "bailout", "threshold_mode", "epsilon", "detail",
+               "step_factor", "max_step", "max_steps", "bisection_steps", "color", "normal_method", "normal_alpha",
+               "normal_delta", "reflectivity", "color_mode", "ramp_scale", "ramp_offset")
+KIND_KEYS = {'JULIA_STACK': ("stack_height",), 'CUBIC_LOCUS': ("cubic_component", "extent"),
+             'IFS': ("ifs_depth",)}
+
+# The most points of a c-path and of a colour ramp the core takes (its PARAMETERS).
+PATH_POINTS = 256
+RAMP_SIZE = 64
+
+
+def core_value(value):
+    """A property's value as the core takes it: enum identifiers lower-cased, arrays as tuples."""
+    if isinstance(value, str):
+        return value.lower()
+    if hasattr(value, "__len__"):
+        return tuple(value)
+    return value
+
+
+def object_parameters(ob, depsgraph=None, with_ramp=True):
+    """The core's object dict of fractal object `ob` (without its world matrix). A curve c-path is
+    read from the evaluated curve when a depsgraph is given, else from its control points."""
+    props = ob.unbound
+    out = {key: core_value(getattr(props, key)) for key in OBJECT_KEYS + KIND_KEYS.get(props.kind, ())}
+    out["name"] = ob.name
+    out["slice_basis"], out["slice_origin"] = slice_frame(props.slice_offset, props.slice_rotation)
+    if with_ramp and props.color_mode != 'BASE':
+        out["color_ramp"] = ramp_table(props.color_ramp_texture)
+    if props.kind == 'JULIA_STACK':
+        out["path"] = c_path(props, depsgraph)
+    elif props.kind == 'IFS':
+        if not len(props.ifs_maps):
+            raise RenderError("fractal '%s': an IFS needs at least one map: add one, or pick a preset" % ob.name)
+        out["maps"] = [ifs_map_rows(m) for m in props.ifs_maps]
+    return out
+
+
+def slice_frame(offset, rotation):
+    """Slice map of object space into the quaternions: the 1-i-j space at k = offset, turned
+    toward the k axis by rotation (angles in the 1-k, i-k and j-k planes, applied in that order).
+    Returns (basis 4x3 as rows, origin 4)."""
+    frame = [[1.0 if r == c else 0.0 for c in range(4)] for r in range(4)]  # columns: 1, i, j, k
+    for axis, angle in enumerate(rotation):
+        c, s = math.cos(angle), math.sin(angle)
+        for r in range(4):
+            a, k = frame[r][axis], frame[r][3]
+            frame[r][axis], frame[r][3] = c * a - s * k, s * a + c * k
+    basis = [row[:3] for row in frame]
+    origin = [offset * frame[r][3] for r in range(4)]
+    return basis, origin
+
+
+def ifs_map_rows(m):
+    """The core's 3x4 rows [A | t] of an IFS map x -> T R S x."""
+    matrix = Matrix.LocRotScale(m.location, Euler(m.rotation, 'XYZ'), m.scale)
+    return [list(matrix[r]) for r in range(3)]
+
+
+def c_path(props, depsgraph=None):
+    """Points (Re c, Im c) of a Julia stack's path, bottom to top."""
+    if props.path_mode == 'LINE':
+        return [tuple(props.c_start), tuple(props.c_end)]
+    curve = props.path_curve
+    if curve is None:
+        raise RenderError("the Julia stack's c-path is a curve, but no curve object is set")
+    if curve.type != 'CURVE':
+        raise RenderError("the Julia stack's c-path object '%s' is not a curve" % curve.name)
+    if depsgraph is not None:
+        # The evaluated curve (resolution, modifiers, animation) as Blender tessellates it.
+        evaluated = curve.evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        try:
+            points = [(v.co.x, v.co.y) for v in mesh.vertices]
+        finally:
+            evaluated.to_mesh_clear()
+    else:
+        points = [(p.co.x, p.co.y) for spline in curve.data.splines
+                  for p in (spline.bezier_points if spline.type == 'BEZIER' else spline.points)]
+    if not points:
+        raise RenderError("the c-path curve '%s' has no points" % curve.name)
+    if len(points) > PATH_POINTS:
+        step = (len(points) - 1) / (PATH_POINTS - 1)
+        points = [points[round(i * step)] for i in range(PATH_POINTS)]
+    return points
+
+
+def ramp_table(texture):
+    """Colours of a texture's colour ramp sampled uniformly (Blender evaluates its own ramp:
+    interpolation, colour mode and keyframed stops included); None without a ramp."""
+    if texture is None or not texture.use_color_ramp:
+        return None
+    ramp = texture.color_ramp
+    return [tuple(ramp.evaluate(i / (RAMP_SIZE - 1)))[:3] for i in range(RAMP_SIZE)]
+
+
+def scene_instances(depsgraph, accept, describe):
+    """describe(object, matrix_world) of every visible instance (instances included) of the objects
+    `accept` takes, None results dropped, in a stable order (name, instance flag, random id): the
+    same on every machine."""
+    found = []
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        if accept(ob):
+            desc = describe(ob, inst.matrix_world)
+            if desc is not None:
+                found.append(((ob.name_full, inst.is_instance, inst.random_id), desc))
+    found.sort(key=lambda item: item[0])
+    return [desc for _, desc in found]
+
+
+def fractal_objects(depsgraph, original=False):
+    """The core's dicts of every visible fractal object (instances included), in a stable order:
+    each object's parameters read once, its matrix per instance. original: read the parameters
+    from the original objects, not the evaluated copies, which a script's change does not reach
+    without a depsgraph tag (the viewport's depsgraph is the active one, where keyframes and
+    drivers write the originals too)."""
+    params = {}
+
+    def describe(ob, matrix):
+        key = ob.name_full  # a linked object may share its name with a local one
+        if key not in params:
+            params[key] = object_parameters(ob.original if original else ob, depsgraph)
+        return dict(params[key], matrix=[list(row) for row in matrix])
+
+    return scene_instances(depsgraph, utils.is_fractal, describe)
+
+
+# ---------------------------------------------------------------------------- world and lights
+
+def world_color(scene):
+    """Scene-linear RGB of the world: the colour and strength of a Background node feeding the
+    World Output, or the world's viewport colour; black without a world."""
+    world = scene.world
+    if world is None:
+        return (0.0, 0.0, 0.0)
+    color, strength = tuple(world.color), 1.0
+    if world.use_nodes and world.node_tree:
+        out = next((n for n in world.node_tree.nodes if n.type == 'OUTPUT_WORLD' and n.is_active_output), None)
+        link = out and next(iter(out.inputs["Surface"].links), None)
+        if link and link.from_node.type == 'BACKGROUND':
+            bg = link.from_node
+            if not bg.inputs["Color"].is_linked:
+                color = tuple(bg.inputs["Color"].default_value)[:3]
+            if not bg.inputs["Strength"].is_linked:
+                strength = bg.inputs["Strength"].default_value
+    return (color[0] * strength, color[1] * strength, color[2] * strength)
+
+
+def background(scene):
+    """Premultiplied RGBA of the background: transparent film, else the world colour."""
+    if scene.render.film_transparent:
+        return (0.0, 0.0, 0.0, 0.0)
+    return world_color(scene) + (1.0,)
+
+
+def light_description(light, matrix):
+    """A Blender light as the core's light dict, in Cycles' units (measured against Cycles: a
+    Lambertian surface returns albedo / pi times the irradiance E):
+      sun:   E = strength (W/m^2) along -Z, angle = angular diameter;
+      point: intensity P / (4 pi): E = P cos / (4 pi r^2), radius = shadow_soft_size; with soft
+             falloff (the default since 4.1) E = P cos / (4 pi (r^2 + radius^2));
+      spot:  a point light times smoothstep((cos a - cos(size/2)) / ((1 - cos(size/2)) blend));
+      area:  radiance P / (pi A), far field E = P cos_light cos / (pi r^2), one-sided along -Z.
+    Blender 4.5's exposure (2^exposure) multiplies the power where the property exists."""
+    power = light.energy * 2.0 ** getattr(light, "exposure", 0.0)
+    color = [c * power for c in light.color]
+    axis = matrix.to_3x3() @ Vector((0.0, 0.0, -1.0))
+    if axis.length == 0.0:
+        raise RenderError("The light '%s' has a zero scale" % light.name)
+    axis.normalize()
+    out = dict(position=tuple(matrix.translation), direction=tuple(axis), cast_shadow=bool(light.use_shadow))
+    if light.type == 'SUN':
+        out.update(type="sun", color=color, radius=math.tan(0.5 * min(light.angle, math.pi * 0.999)))
+    elif light.type in {'POINT', 'SPOT'}:
+        out.update(type=light.type.lower(), color=[c / (4.0 * math.pi) for c in color],
+                   radius=light.shadow_soft_size, soft_falloff=bool(getattr(light, "use_soft_falloff", False)))
+        if light.type == 'SPOT':
+            out.update(spot_size=light.spot_size, spot_blend=light.spot_blend)
+    elif light.type == 'AREA':
+        size_y = light.size_y if light.shape in {'RECTANGLE', 'ELLIPSE'} else light.size
+        out.update(type="area", color=[c / math.pi for c in color], radius=0.5 * max(light.size, size_y))
+    else:
+        return None
+    return out
+
+
+# Scene.unbound properties that are shading keys of the same name.
+SHADING_KEYS = ("samples", "axle_light", "ambient", "shadows", "ao_strength", "ao_distance", "ao_samples",
+                "reflection_depth", "fog_density", "fog_color", "glow_strength", "glow_color", "use_sea",
+                "sea_height", "sea_wavelength", "sea_amplitude", "sea_color", "sea_reflectivity")
+MAX_LIGHTS = 64
+
+
+def shading_description(depsgraph, samples=None):
+    """The core's shading dict: Scene.unbound's settings and the scene's lights; `samples`
+    overrides the sample count (the viewport's own)."""
+    scene = depsgraph.scene
+    s = scene.unbound
+    out = {key: core_value(getattr(s, key)) for key in SHADING_KEYS}
+    if samples is not None:
+        out["samples"] = samples
+    if s.fog_use_world:
+        out["fog_color"] = world_color(scene)
+    lights = []
+    if s.use_scene_lights:
+        lights = scene_instances(depsgraph, lambda ob: ob.type == 'LIGHT',
+                                 lambda ob, matrix: light_description(ob.data, matrix))
+    if len(lights) > MAX_LIGHTS:
+        raise RenderError("The scene has %d lights; Unbound renders at most %d" % (len(lights), MAX_LIGHTS))
+    out["lights"] = lights
+    return out
+
+
+# ---------------------------------------------------------------------------- render keywords
+
+def thread_count(scene):
+    """Blender's Performance > Threads setting, as Cycles honours it (0: every core)."""
+    r = scene.render
+    return r.threads if r.threads_mode == 'FIXED' else 0
+
+
+def render_options(scene):
+    """render()'s keywords from the scene: threads, tiles, kernel, background."""
+    s = scene.unbound
+    return dict(threads=thread_count(scene), tile_size=s.tile_size, simd=core_value(s.simd),
+                background=background(scene))

@@ -1,0 +1,147 @@
+/* The parameter table: every value a caller can give the core, declared once.
+ *
+ * One row per key (as Cycles' NODE_DEFINE declares a node's sockets): its type, where it is
+ * stored in the section's input record, its shape, its hard range, its default, its choices and
+ * one line that says what it means. The binding's one generic parser (module.c) reads
+ * dictionaries through these rows: unknown keys, defaults, ranges, non-finite values and the
+ * messages. Python sees the same rows read-only as unbound_core.PARAMETERS, and the Blender
+ * add-on's properties are checked against them (tests/blender/test_parameter_table.py).
+ *
+ * The input records hold the caller's values as given (double for every real number); the
+ * kernels' records (scene.h) are derived from them by the prepare functions. */
+#ifndef UNBOUND_PARAMS_H
+#define UNBOUND_PARAMS_H
+
+#include <stddef.h>
+
+#include "scene.h"
+
+#define UB_MAX_NAME 64
+
+typedef enum {
+    UB_PARAM_FLOAT,    /* double components */
+    UB_PARAM_INT,      /* int components */
+    UB_PARAM_BOOL,     /* int 0/1, only True or False accepted */
+    UB_PARAM_CHOICE,   /* int index into choices; given as the name */
+    UB_PARAM_STRING,   /* char[UB_MAX_NAME] */
+    UB_PARAM_LIST,     /* min_items..max_items items, each of the row's shape or a dict of `items` */
+    UB_PARAM_CUSTOM,   /* parsed by the binding's own code (callables, buffers); described only */
+} ub_param_type;
+
+/* Flag bits of a row. */
+enum {
+    UB_PARAM_REQUIRED = 1 << 0,   /* no default: the key must be given */
+    UB_PARAM_ALLOW_INF = 1 << 1,  /* +-infinity accepted (NaN never is) */
+    UB_PARAM_NONE_OK = 1 << 2,    /* None means "use the default" */
+};
+
+typedef struct ub_param_section ub_param_section;
+
+typedef struct {
+    const char *key;
+    ub_param_type type;
+    size_t offset;            /* of the value in the section's input record */
+    int rows, cols;           /* shape of one value (of one item for lists): 1 x 1 is a scalar */
+    double min, max;          /* hard range of every component */
+    const double *defaults;   /* rows x cols values (lists: default_items items); NULL: zeros */
+    const char *const *choices; /* CHOICE: NULL-terminated names */
+    unsigned flags;
+    const char *description;
+    /* Lists: the item count is stored at count_offset (an int); items follow each other
+     * item_size bytes apart from offset; items that are dicts are read by the section `items`. */
+    int min_items, max_items, default_items;
+    size_t count_offset, item_size;
+    const ub_param_section *items;
+} ub_param;
+
+struct ub_param_section {
+    const char *name;         /* "object", "camera", "shading", "light", "render" */
+    const ub_param *rows;
+    int count;
+    size_t record_size;
+};
+
+/* ------------------------------------------------------------------ the input records */
+
+typedef struct {
+    char name[UB_MAX_NAME];   /* the caller's name for messages ("" : objects[i]) */
+    int kind;                 /* ub_fractal_kind */
+    double mu[4], theta;
+    double slice_basis[4][3], slice_origin[4];
+    double matrix[4][4];      /* object -> world */
+    int max_iterations;
+    double bailout;
+    int threshold_mode;       /* ub_epsilon_mode */
+    double epsilon, detail, step_factor, max_step;
+    int max_steps, bisection_steps;
+    double color[3];
+    int normal_method;        /* ub_normal_method */
+    double normal_alpha, normal_delta, reflectivity;
+    int color_mode;           /* ub_color_mode */
+    int color_ramp_count;
+    double color_ramp[UB_MAX_RAMP][3];
+    double ramp_scale, ramp_offset;
+    int path_count;
+    double path[UB_MAX_PATH][2];
+    double stack_height;
+    int cubic_component;      /* ub_cubic_component */
+    double extent;
+    int maps_count;
+    double maps[UB_MAX_IFS_MAPS][3][4];
+    int ifs_depth;
+} ub_object_input;
+
+typedef struct {
+    double matrix[4][4], projection[4][4];
+    int width, height;
+} ub_camera_input;
+
+typedef struct {
+    int type;                 /* ub_light_type */
+    double position[3], direction[3], color[3];
+    double radius, spot_size, spot_blend;
+    int cast_shadow, soft_falloff;
+} ub_light_input;
+
+typedef struct {
+    int samples;
+    double axle_light, ambient[3];
+    int shadows;              /* ub_shadow_mode */
+    double ao_strength, ao_distance;
+    int ao_samples, reflection_depth;
+    double fog_density, fog_color[3], glow_strength, glow_color[3];
+    int use_sea;
+    double sea_height, sea_wavelength, sea_amplitude, sea_color[3], sea_reflectivity;
+    int lights_count;
+    ub_light_input lights[UB_MAX_LIGHTS];
+} ub_shading_input;
+
+/* render()'s keywords beside camera, objects and passes. */
+typedef struct {
+    double window[4];         /* whole numbers; window_given 0: the whole image */
+    int window_given;
+    int threads, tile_size, simd, stride;
+    double poll_interval, background[4];
+    double sample_range[2];   /* whole numbers (first, count); sample_range_given 0: all samples */
+    int sample_range_given;
+} ub_render_input;
+
+extern const ub_param_section ub_object_section, ub_camera_section, ub_light_section, ub_shading_section,
+    ub_render_section;
+/* Every section, for PARAMETERS; NULL-terminated. */
+extern const ub_param_section *const ub_param_sections[];
+
+extern const char *const ub_kind_names[];     /* indexed by ub_fractal_kind */
+extern const char *const ub_isa_names[];      /* indexed by ub_isa */
+
+/* Below this ratio of a pixel's footprint to the fractal's bounding radius, float32 no longer
+ * resolves neighbouring pixels' depths (measured: tests/native/test_precision.py). */
+#define UB_PRECISION_LIMIT 1e-6
+
+/* Input -> the kernels' records (scene.c, camera.c): NULL, or a message without the path. */
+const char *ub_object_from_input(ub_object *obj, const ub_object_input *in);
+const char *ub_camera_from_input(ub_camera *cam, const ub_camera_input *in);
+const char *ub_light_from_input(ub_light *light, const ub_light_input *in);
+void ub_shading_from_input(ub_shading *sh, const ub_shading_input *in);
+
+#endif
