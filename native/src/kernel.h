@@ -422,17 +422,178 @@ static inline void put(float *buf, size_t idx, int chans, const float *v, int sa
     }
 }
 
+/* One packet's paths through its bounces: radiance L += W * (local light), W the path's
+ * throughput after fog and reflectivity, Wr the throughput without the first segment's fog (for
+ * the Reflection pass, whose sum is R); and what the camera rays found, kept for the passes. */
+typedef struct {
+    float L[3][UB_LANES], W[UB_LANES], Wr[UB_LANES], R[3][UB_LANES];
+    float pass_ao[UB_LANES], pass_shadow[UB_LANES], pass_trap[UB_LANES];
+    float pass_diffuse[3][UB_LANES], pass_ambient[3][UB_LANES];
+    double pos0[3][UB_LANES];
+    float nrm0[3][UB_LANES];
+    float primary_steps[UB_LANES], primary_iters[UB_LANES], primary_dist[UB_LANES];
+    int primary_obj[UB_LANES];
+} ub_paths;
+
+/* The camera rays' hits of packet (x, y) from the hit buffer into tr, and the empty paths. */
+static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_result *tr, ub_paths *ps)
+{
+    memset(ps, 0, sizeof *ps);
+    for (int l = 0; l < UB_LANES; l++) {
+        int lx = x + (l < n ? l : n - 1);
+        const ub_hit *h = &hb->hits[(size_t)(y + hb->apron_y) * hb->w + (lx + hb->apron_x)];
+        tr->t[l] = h->t;
+        tr->iters[l] = h->iterations;
+        tr->dist[l] = h->distance;
+        tr->steps[l] = h->steps;
+        tr->object[l] = h->object;
+        ps->W[l] = 1.0f;
+        ps->pass_ao[l] = 1.0f;
+        ps->pass_shadow[l] = 1.0f;
+    }
+    /* The camera rays' own results, kept for the passes: later bounces reuse tr. */
+    memcpy(ps->primary_steps, tr->steps, sizeof ps->primary_steps);
+    memcpy(ps->primary_iters, tr->iters, sizeof ps->primary_iters);
+    memcpy(ps->primary_dist, tr->dist, sizeof ps->primary_dist);
+    memcpy(ps->primary_obj, tr->object, sizeof ps->primary_obj);
+}
+
+/* Lanes of `alive` that missed everything see the world (the background colour, unfogged);
+ * returns the lanes that hit something. */
+static int add_background(const ub_film *film, int bounce, int alive, const ub_trace_result *tr, ub_paths *ps)
+{
+    int hit_lanes = 0;
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((alive >> l) & 1))
+            continue;
+        if (tr->object[l] != UB_HIT_NONE) {
+            hit_lanes |= 1 << l;
+            continue;
+        }
+        for (int i = 0; i < 3; i++) {
+            ps->L[i][l] += ps->W[l] * film->background[i];
+            if (bounce > 0)
+                ps->R[i][l] += ps->Wr[l] * film->background[i];
+        }
+    }
+    return hit_lanes;
+}
+
+/* The local light of each hit lane (diffuse and ambient, fogged) into the paths, the first
+ * bounce's passes, and the mirrored rays of the lanes that go on; returns those lanes. */
+static int add_surface_light(const ub_shading *sh, int bounce, int hit_lanes, const ub_surface *sf,
+                             const float direct[3][UB_LANES], const float shadow[UB_LANES],
+                             const float ao[UB_LANES], const ub_trace_result *tr, ub_packet_rays *pr, ub_paths *ps)
+{
+    int last = bounce >= sh->reflection_depth;
+    int next = 0;
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((hit_lanes >> l) & 1))
+            continue;
+        /* Without a further bounce the surface shows its own colour in full. */
+        float r = last ? 0.0f : sf->reflectivity[l];
+        float f = sh->fog_density > 0.0 ? (float)(1.0 - exp(-sh->fog_density * tr->t[l])) : 0.0f;
+        float local[3], dif[3], amb[3];
+        for (int i = 0; i < 3; i++) {
+            dif[i] = (1.0f - r) * sf->albedo[i][l] * direct[i][l];
+            amb[i] = (1.0f - r) * sf->albedo[i][l] * sh->ambient[i] * ao[l];
+            local[i] = dif[i] + amb[i];
+            ps->L[i][l] += ps->W[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
+            if (bounce > 0)
+                ps->R[i][l] += ps->Wr[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
+        }
+        if (bounce == 0) {
+            for (int i = 0; i < 3; i++) {
+                ps->pass_diffuse[i][l] = dif[i];
+                ps->pass_ambient[i][l] = amb[i];
+                ps->pos0[i][l] = sf->p[i][l];
+                ps->nrm0[i][l] = sf->n[i][l];
+            }
+            ps->pass_ao[l] = ao[l];
+            ps->pass_shadow[l] = shadow[l];
+            ps->pass_trap[l] = sf->trap[l];
+            ps->Wr[l] = r;
+        } else {
+            ps->Wr[l] *= (1.0f - f) * r;
+        }
+        ps->W[l] *= (1.0f - f) * r;
+        if (!(ps->W[l] > 0.0f))
+            continue;
+        /* Mirror reflection about the normal (which faces the incoming ray). */
+        double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+        double dn = d[0] * sf->n[0][l] + d[1] * sf->n[1][l] + d[2] * sf->n[2][l];
+        for (int i = 0; i < 3; i++) {
+            pr->dir[i][l] = d[i] - 2.0 * dn * sf->n[i][l];
+            pr->origin[i][l] = sf->p[i][l] + sf->bias[l] * sf->n[i][l];
+        }
+        pr->t_base[l] += tr->t[l];
+        pr->t_min[l] = sf->bias[l];
+        pr->t_max[l] = 1e30;
+        next |= 1 << l;
+    }
+    return next;
+}
+
+/* Every pass of the packet's n pixels at film row y, columns x.. (sample `sample`). */
+static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, const ub_paths *ps)
+{
+    const ub_camera *cam = sc->camera;
+    const ub_film *film = sc->film;
+    const ub_shading *sh = sc->shading;
+    const float glow_scale = 1.0f / 64.0f;
+    const int S = sh->samples;
+    for (int l = 0; l < n; l++) {
+        size_t idx = (size_t)y * (size_t)film->w + (size_t)(x + l);
+        int hit = ps->primary_obj[l] != UB_HIT_NONE;
+        float g = sh->glow_strength > 0.0f ? sh->glow_strength * (1.0f - expf(-ps->primary_steps[l] * glow_scale))
+                                           : 0.0f;
+        float glow[3] = {g * sh->glow_color[0], g * sh->glow_color[1], g * sh->glow_color[2]};
+        float rgba[4] = {ps->L[0][l] + glow[0], ps->L[1][l] + glow[1], ps->L[2][l] + glow[2],
+                         hit ? 1.0f : film->background[3]};
+        float alpha = hit ? 1.0f : 0.0f, zero3[3] = {0, 0, 0};
+        double depth = 0.0;
+        float normal[3], pos[3];
+        for (int i = 0; i < 3; i++) {
+            depth += (ps->pos0[i][l] - cam->position[i]) * cam->forward[i];
+            normal[i] = ps->nrm0[i][l];
+            pos[i] = (float)ps->pos0[i][l];
+        }
+        float depthf = hit ? (float)depth : UB_BACKGROUND_DEPTH;
+        float iters = hit ? ps->primary_iters[l] : 0.0f, dist = hit ? ps->primary_dist[l] : 0.0f;
+        float refl[3] = {ps->R[0][l], ps->R[1][l], ps->R[2][l]};
+        float dif[3] = {ps->pass_diffuse[0][l], ps->pass_diffuse[1][l], ps->pass_diffuse[2][l]};
+        float amb[3] = {ps->pass_ambient[0][l], ps->pass_ambient[1][l], ps->pass_ambient[2][l]};
+        float steps = ps->primary_steps[l], ao = ps->pass_ao[l], shadow = ps->pass_shadow[l];
+        float trap = ps->pass_trap[l];
+        put(film->pass[UB_PASS_COMBINED], idx, 4, rgba, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_ALPHA], idx, 1, &alpha, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_DEPTH], idx, 1, &depthf, sample, S, PASS_DATA);
+        put(film->pass[UB_PASS_NORMAL], idx, 3, hit ? normal : zero3, sample, S, PASS_DATA);
+        put(film->pass[UB_PASS_POSITION], idx, 3, hit ? pos : zero3, sample, S, PASS_DATA);
+        put(film->pass[UB_PASS_ITERATIONS], idx, 1, &iters, sample, S, PASS_DATA);
+        put(film->pass[UB_PASS_STEPS], idx, 1, &steps, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_DISTANCE], idx, 1, &dist, sample, S, PASS_DATA);
+        put(film->pass[UB_PASS_AO], idx, 1, &ao, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_SHADOW], idx, 1, &shadow, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_DIFFUSE], idx, 3, dif, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_AMBIENT], idx, 3, amb, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &trap, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, PASS_AVERAGED);
+    }
+}
+
+/* Phase 1 over one tile: each packet's paths bounce by bounce (the camera rays' hits come from
+ * the hit buffer), then its passes. */
 static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1, ub_counters *cnt)
 {
     const ub_camera *cam = sc->camera;
     const ub_film *film = sc->film;
     const ub_shading *sh = sc->shading;
-    const ub_hit_buffer *hb = sc->hits;
     ub_de_params dps[UB_MAX_OBJECTS];
     for (int k = 0; k < sc->object_count; k++)
         de_params(&sc->objects[k], cam, &dps[k]);
     const int want_trap = film->pass[UB_PASS_ORBIT_TRAP] != NULL;
-    const float glow_scale = 1.0f / 64.0f;
     /* AO only changes the ambient term: without ambient light it is needed for its pass alone. */
     const int use_ao = sh->ao_strength > 0.0f
                     && (sh->ambient[0] > 0.0f || sh->ambient[1] > 0.0f || sh->ambient[2] > 0.0f
@@ -445,47 +606,12 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
             if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
-            int lanes = (1 << n) - 1;
             ub_packet_rays pr;
             ub_trace_result tr;
+            ub_paths ps;
             camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, off, &pr);
-            for (int l = 0; l < UB_LANES; l++) {
-                int lx = x + (l < n ? l : n - 1);
-                const ub_hit *h = &hb->hits[(size_t)(y + hb->apron_y) * hb->w + (lx + hb->apron_x)];
-                tr.t[l] = h->t;
-                tr.iters[l] = h->iterations;
-                tr.dist[l] = h->distance;
-                tr.steps[l] = h->steps;
-                tr.object[l] = h->object;
-            }
-            /* The camera rays' own results, kept for the passes: later bounces reuse tr. */
-            float primary_steps[UB_LANES], primary_iters[UB_LANES], primary_dist[UB_LANES];
-            int primary_obj[UB_LANES];
-            memcpy(primary_steps, tr.steps, sizeof primary_steps);
-            memcpy(primary_iters, tr.iters, sizeof primary_iters);
-            memcpy(primary_dist, tr.dist, sizeof primary_dist);
-            memcpy(primary_obj, tr.object, sizeof primary_obj);
-
-            /* Radiance along each path: L += W * (local light), W the path's throughput after
-             * fog and reflectivity. Wr is the throughput without the first segment's fog, for
-             * the Reflection pass. */
-            float L[3][UB_LANES] = {{0}}, W[UB_LANES], Wr[UB_LANES], R[3][UB_LANES] = {{0}};
-            float pass_ao[UB_LANES], pass_shadow[UB_LANES], pass_trap[UB_LANES];
-            float pass_diffuse[3][UB_LANES] = {{0}}, pass_ambient[3][UB_LANES] = {{0}};
-            double pos0[3][UB_LANES];
-            float nrm0[3][UB_LANES];
-            for (int l = 0; l < UB_LANES; l++) {
-                W[l] = 1.0f;
-                Wr[l] = 0.0f;
-                pass_ao[l] = 1.0f;
-                pass_shadow[l] = 1.0f;
-                pass_trap[l] = 0.0f;
-                for (int i = 0; i < 3; i++) {
-                    pos0[i][l] = 0.0;
-                    nrm0[i][l] = 0.0f;
-                }
-            }
-            int alive = lanes;
+            start_paths(sc->hits, x, y, n, &tr, &ps);
+            int alive = (1 << n) - 1;
             for (int bounce = 0; alive; bounce++) {
                 if (bounce > 0) {
                     trace(sc, dps, &pr, alive, sh->sea ? UB_TRACE_SEA : 0, NULL, &tr, cnt);
@@ -495,21 +621,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                     if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                         return;
                 }
-                int hit_lanes = 0;
-                for (int l = 0; l < UB_LANES; l++) {
-                    if (!((alive >> l) & 1))
-                        continue;
-                    if (tr.object[l] == UB_HIT_NONE) {
-                        /* The world: the background colour, unfogged. */
-                        for (int i = 0; i < 3; i++) {
-                            L[i][l] += W[l] * film->background[i];
-                            if (bounce > 0)
-                                R[i][l] += Wr[l] * film->background[i];
-                        }
-                    } else {
-                        hit_lanes |= 1 << l;
-                    }
-                }
+                int hit_lanes = add_background(film, bounce, alive, &tr, &ps);
                 if (!hit_lanes)
                     break;
                 ub_surface sf;
@@ -521,93 +633,9 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                 else
                     for (int l = 0; l < UB_LANES; l++)
                         ao[l] = 1.0f;
-                int last = bounce >= sh->reflection_depth;
-                int next = 0;
-                for (int l = 0; l < UB_LANES; l++) {
-                    if (!((hit_lanes >> l) & 1))
-                        continue;
-                    /* Without a further bounce the surface shows its own colour in full. */
-                    float r = last ? 0.0f : sf.reflectivity[l];
-                    float f = sh->fog_density > 0.0 ? (float)(1.0 - exp(-sh->fog_density * tr.t[l])) : 0.0f;
-                    float local[3], dif[3], amb[3];
-                    for (int i = 0; i < 3; i++) {
-                        dif[i] = (1.0f - r) * sf.albedo[i][l] * direct[i][l];
-                        amb[i] = (1.0f - r) * sf.albedo[i][l] * sh->ambient[i] * ao[l];
-                        local[i] = dif[i] + amb[i];
-                        L[i][l] += W[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
-                        if (bounce > 0)
-                            R[i][l] += Wr[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
-                    }
-                    if (bounce == 0) {
-                        for (int i = 0; i < 3; i++) {
-                            pass_diffuse[i][l] = dif[i];
-                            pass_ambient[i][l] = amb[i];
-                            pos0[i][l] = sf.p[i][l];
-                            nrm0[i][l] = sf.n[i][l];
-                        }
-                        pass_ao[l] = ao[l];
-                        pass_shadow[l] = shadow[l];
-                        pass_trap[l] = sf.trap[l];
-                        Wr[l] = r;
-                    } else {
-                        Wr[l] *= (1.0f - f) * r;
-                    }
-                    W[l] *= (1.0f - f) * r;
-                    if (!(W[l] > 0.0f))
-                        continue;
-                    /* Mirror reflection about the normal (which faces the incoming ray). */
-                    double d[3] = {pr.dir[0][l], pr.dir[1][l], pr.dir[2][l]};
-                    double dn = d[0] * sf.n[0][l] + d[1] * sf.n[1][l] + d[2] * sf.n[2][l];
-                    for (int i = 0; i < 3; i++) {
-                        pr.dir[i][l] = d[i] - 2.0 * dn * sf.n[i][l];
-                        pr.origin[i][l] = sf.p[i][l] + sf.bias[l] * sf.n[i][l];
-                    }
-                    pr.t_base[l] += tr.t[l];
-                    pr.t_min[l] = sf.bias[l];
-                    pr.t_max[l] = 1e30;
-                    next |= 1 << l;
-                }
-                alive = next;
+                alive = add_surface_light(sh, bounce, hit_lanes, &sf, direct, shadow, ao, &tr, &pr, &ps);
             }
-
-            for (int l = 0; l < n; l++) {
-                size_t idx = (size_t)y * (size_t)film->w + (size_t)(x + l);
-                int hit = primary_obj[l] != UB_HIT_NONE;
-                float g = sh->glow_strength > 0.0f ? sh->glow_strength * (1.0f - expf(-primary_steps[l] * glow_scale))
-                                                   : 0.0f;
-                float glow[3] = {g * sh->glow_color[0], g * sh->glow_color[1], g * sh->glow_color[2]};
-                float rgba[4] = {L[0][l] + glow[0], L[1][l] + glow[1], L[2][l] + glow[2],
-                                 hit ? 1.0f : film->background[3]};
-                float alpha = hit ? 1.0f : 0.0f, zero3[3] = {0, 0, 0};
-                double depth = 0.0;
-                float normal[3], pos[3];
-                for (int i = 0; i < 3; i++) {
-                    depth += (pos0[i][l] - cam->position[i]) * cam->forward[i];
-                    normal[i] = nrm0[i][l];
-                    pos[i] = (float)pos0[i][l];
-                }
-                float depthf = hit ? (float)depth : UB_BACKGROUND_DEPTH;
-                float iters = hit ? primary_iters[l] : 0.0f, dist = hit ? primary_dist[l] : 0.0f;
-                float refl[3] = {R[0][l], R[1][l], R[2][l]};
-                float dif[3] = {pass_diffuse[0][l], pass_diffuse[1][l], pass_diffuse[2][l]};
-                float amb[3] = {pass_ambient[0][l], pass_ambient[1][l], pass_ambient[2][l]};
-                int S = sh->samples;
-                put(film->pass[UB_PASS_COMBINED], idx, 4, rgba, sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_ALPHA], idx, 1, &alpha, sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_DEPTH], idx, 1, &depthf, sample, S, PASS_DATA);
-                put(film->pass[UB_PASS_NORMAL], idx, 3, hit ? normal : zero3, sample, S, PASS_DATA);
-                put(film->pass[UB_PASS_POSITION], idx, 3, hit ? pos : zero3, sample, S, PASS_DATA);
-                put(film->pass[UB_PASS_ITERATIONS], idx, 1, &iters, sample, S, PASS_DATA);
-                put(film->pass[UB_PASS_STEPS], idx, 1, &primary_steps[l], sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_DISTANCE], idx, 1, &dist, sample, S, PASS_DATA);
-                put(film->pass[UB_PASS_AO], idx, 1, &pass_ao[l], sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_SHADOW], idx, 1, &pass_shadow[l], sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_DIFFUSE], idx, 3, dif, sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_AMBIENT], idx, 3, amb, sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &pass_trap[l], sample, S, PASS_AVERAGED);
-                put(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, PASS_AVERAGED);
-            }
+            write_passes(sc, sample, x, y, n, &ps);
         }
     }
 }

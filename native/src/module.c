@@ -133,7 +133,7 @@ static int read_string(PyObject *o, const char *name, char *out, size_t size)
         return -1;
     }
     if ((size_t)len >= size || memchr(s, 0, (size_t)len)) {
-        PyErr_Format(PyExc_ValueError, "%s must be a string of at most %d characters without NUL",
+        PyErr_Format(PyExc_ValueError, "%s must be a string of at most %d bytes (UTF-8) without NUL",
                      name, (int)size - 1);
         return -1;
     }
@@ -887,17 +887,14 @@ out:
 
 static PyObject *py_camera_ray(PyObject *self, PyObject *args)
 {
-    PyObject *cam_o;
-    double x, y;
-    if (!PyArg_ParseTuple(args, "Odd", &cam_o, &x, &y))
+    PyObject *cam_o, *x_o, *y_o;
+    if (!PyArg_ParseTuple(args, "OOO", &cam_o, &x_o, &y_o))
         return NULL;
     ub_camera cam;
-    if (parse_camera(cam_o, &cam))
+    double x, y;
+    if (parse_camera(cam_o, &cam) || read_double(x_o, "x", -HUGE_VAL, HUGE_VAL, 0, "", &x)
+        || read_double(y_o, "y", -HUGE_VAL, HUGE_VAL, 0, "", &y))
         return NULL;
-    if (!isfinite(x) || !isfinite(y)) {
-        PyErr_SetString(PyExc_ValueError, "pixel coordinates must be finite");
-        return NULL;
-    }
     double o[3], d[3], t0, t1;
     ub_camera_ray(&cam, x, y, o, d, &t0, &t1);
     return Py_BuildValue("((ddd)(ddd)dd)", o[0], o[1], o[2], d[0], d[1], d[2], t0, t1);

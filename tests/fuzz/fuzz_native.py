@@ -746,7 +746,8 @@ def fuzz_point_queries(g):
 def fuzz_camera_ray(g):
     camera = random_camera(g)
     try:
-        uc.camera_ray(camera, g.real(-10, 30), g.real(-10, 30))
+        coordinate = (lambda: g.pick(WRONG_TYPES)) if g.chance(8) else (lambda: g.real(-10, 30))
+        uc.camera_ray(camera, coordinate(), coordinate())
     except Exception as exc:  # noqa: BLE001
         if not expected_error(exc, g):
             raise

@@ -38,7 +38,7 @@ OBJECT_CASES = [
     (dict(name="Ghost", matrix=[[0, 0, 0, 0]] * 3 + [[0, 0, 0, 1]]), ValueError,
      r"^fractal 'Ghost': object_to_world must be invertible"),
     (dict(name=3), TypeError, r"objects\[0\]\.name must be a string"),
-    (dict(name="x" * 64), ValueError, r"objects\[0\]\.name must be a string of at most 63 characters"),
+    (dict(name="x" * 64), ValueError, r"objects\[0\]\.name must be a string of at most 63 bytes"),
     (dict(theta=NAN), ValueError, r"objects\[0\]\.theta must be finite"),
     (dict(max_iterations=0), ValueError, r"objects\[0\]\.max_iterations must be in \[1, 10000\]"),
     (dict(max_iterations=-5), ValueError, r"max_iterations"),
@@ -189,6 +189,14 @@ class Hostile:
         import gc
         gc.collect()
         return self.value
+
+
+def test_camera_ray_coordinates_are_checked(camera):
+    """Found by the table-driven fuzzer: a huge int raised OverflowError, not a named error."""
+    with pytest.raises(TypeError, match=r"^x must be a number"):
+        uc.camera_ray(camera, 10 ** 400, 0)
+    with pytest.raises(ValueError, match=r"^y must be finite"):
+        uc.camera_ray(camera, 0.5, math.nan)
 
 
 def test_values_that_mutate_their_containers_are_read_safely(camera):
