@@ -123,12 +123,15 @@ def object_parameters(ob, depsgraph=None, with_ramp=True):
     out["slice_basis"], out["slice_origin"] = slice_frame(props.slice_offset, props.slice_rotation)
     if with_ramp and props.color_mode != 'BASE':
         out["color_ramp"] = ramp_table(props.color_ramp_texture)
-    if props.kind == 'JULIA_STACK':
-        out["path"] = c_path(props, depsgraph)
-    elif props.kind == 'IFS':
-        if not len(props.ifs_maps):
-            raise RenderError("fractal '%s': an IFS needs at least one map: add one, or pick a preset" % ob.name)
-        out["maps"] = [ifs_map_rows(m) for m in props.ifs_maps]
+    try:
+        if props.kind == 'JULIA_STACK':
+            out["path"] = c_path(props, depsgraph)
+        elif props.kind == 'IFS':
+            if not len(props.ifs_maps):
+                raise RenderError("an IFS needs at least one map: add one, or pick a preset")
+            out["maps"] = [ifs_map_rows(m) for m in props.ifs_maps]
+    except RenderError as exc:  # named as the core names an object
+        raise RenderError("fractal '%s': %s" % (ob.name, exc)) from None
     return out
 
 

@@ -23,7 +23,7 @@
 
 #define ERRBUF 256
 
-/* Where a value sits, for messages: `path` is the text before the key ("objects[0]", or
+/* Where a dict's keys sit, for messages: `path` is the text before the key ("objects[0]", or
  * "fractal 'Mandel'" when the caller names its object), `sep` what joins a key to it, and `hint`
  * what a non-finite value's message adds (named objects come from animated scenes). */
 typedef struct {
@@ -48,8 +48,7 @@ static void set_value_error(const char *fmt, ...)
 
 /* ---------------------------------------------------------------- scalars */
 
-static int read_double(PyObject *o, const char *name, double lo, double hi, unsigned flags, const char *hint,
-                       double *out)
+static int read_double(PyObject *o, const char *name, double lo, double hi, const char *hint, double *out)
 {
     if (!PyFloat_Check(o) && !PyLong_Check(o) && !PyObject_HasAttrString(o, "__float__")) {
         PyErr_Format(PyExc_TypeError, "%s must be a number", name);
@@ -61,7 +60,7 @@ static int read_double(PyObject *o, const char *name, double lo, double hi, unsi
         PyErr_Format(PyExc_TypeError, "%s must be a number", name);
         return -1;
     }
-    if (isnan(v) || (isinf(v) && !(flags & UB_PARAM_ALLOW_INF))) {
+    if (!isfinite(v)) {
         PyErr_Format(PyExc_ValueError, "%s must be finite%s", name, hint);
         return -1;
     }
@@ -154,11 +153,11 @@ static PyObject *snapshot(PyObject *o, const char *name, const char *what)
 }
 
 /* `cols` numbers (a scalar when cols is 0) into out. */
-static int read_vector(PyObject *o, const char *name, int cols, double lo, double hi, unsigned flags,
-                       const char *hint, double *out)
+static int read_vector(PyObject *o, const char *name, int cols, double lo, double hi, const char *hint,
+                       double *out)
 {
     if (cols == 0)
-        return read_double(o, name, lo, hi, flags, hint, out);
+        return read_double(o, name, lo, hi, hint, out);
     char what[64];
     snprintf(what, sizeof what, "a sequence of %d numbers", cols);
     PyObject *t = snapshot(o, name, what);
@@ -172,7 +171,7 @@ static int read_vector(PyObject *o, const char *name, int cols, double lo, doubl
     for (int i = 0; i < cols && !rc; i++) {
         char sub[ERRBUF];
         snprintf(sub, sizeof sub, "%s[%d]", name, i);
-        rc = read_double(PyTuple_GetItem(t, i), sub, lo, hi, flags, hint, &out[i]);
+        rc = read_double(PyTuple_GetItem(t, i), sub, lo, hi, hint, &out[i]);
     }
     Py_DECREF(t);
     return rc;
@@ -183,7 +182,7 @@ static int read_vector(PyObject *o, const char *name, int cols, double lo, doubl
 static int read_shaped(PyObject *o, const char *name, const ub_param *p, const char *hint, double *out)
 {
     if (p->rows == 1)
-        return read_vector(o, name, p->cols == 1 ? 0 : p->cols, p->min, p->max, p->flags, hint, out);
+        return read_vector(o, name, p->cols == 1 ? 0 : p->cols, p->min, p->max, hint, out);
     char what[64];
     snprintf(what, sizeof what, "a %dx%d matrix (a sequence of %d rows)", p->rows, p->cols, p->rows);
     PyObject *t = snapshot(o, name, what);
@@ -198,7 +197,7 @@ static int read_shaped(PyObject *o, const char *name, const ub_param *p, const c
     for (int r = 0; r < p->rows && !rc; r++) {
         char sub[ERRBUF];
         snprintf(sub, sizeof sub, "%s[%d]", name, r);
-        rc = read_vector(PyTuple_GetItem(t, r), sub, p->cols, p->min, p->max, p->flags, hint, out + r * p->cols);
+        rc = read_vector(PyTuple_GetItem(t, r), sub, p->cols, p->min, p->max, hint, out + r * p->cols);
     }
     Py_DECREF(t);
     return rc;
@@ -206,8 +205,7 @@ static int read_shaped(PyObject *o, const char *name, const ub_param *p, const c
 
 /* ---------------------------------------------------------------- sections */
 
-static int read_section(PyObject *o, const ub_where *where, const char *name, const ub_param_section *s,
-                        void *record, uint64_t *given);
+static int read_section(PyObject *o, const char *name, const ub_param_section *s, void *record, uint64_t *given);
 
 static void apply_defaults(const ub_param_section *s, void *record)
 {
@@ -259,12 +257,10 @@ static int read_list(PyObject *o, const char *name, const ub_param *p, const cha
         char sub[ERRBUF];
         snprintf(sub, sizeof sub, "%s[%zd]", name, i);
         void *slot = items + i * p->item_size;
-        if (p->items) {
-            ub_where inner = {"", "", ""};
-            rc = read_section(PyTuple_GetItem(t, i), &inner, sub, p->items, slot, NULL);
-        } else {
+        if (p->items)
+            rc = read_section(PyTuple_GetItem(t, i), sub, p->items, slot, NULL);
+        else
             rc = read_shaped(PyTuple_GetItem(t, i), sub, p, hint, slot);
-        }
     }
     Py_DECREF(t);
     if (!rc)
@@ -325,11 +321,10 @@ static int check_keys(PyObject *d, const char *name, const ub_param_section *s)
 }
 
 /* Reads dict o (None: all defaults) of section s into record through the table: defaults first,
- * then every given key. `name` names the dict itself; its keys are named through `where`, which
- * a row of type STRING called "name" replaces by the object's own name. Bit i of *given is set
- * when row i was given (not None). */
-static int read_section(PyObject *o, const ub_where *where, const char *name, const ub_param_section *s,
-                        void *record, uint64_t *given)
+ * then every given key. `name` names the dict itself and its keys ("name.key"; "" names the
+ * keys alone), unless a row of type STRING called "name" gives the object's own name. Bit i of
+ * *given is set when row i was given (not None). */
+static int read_section(PyObject *o, const char *name, const ub_param_section *s, void *record, uint64_t *given)
 {
     apply_defaults(s, record);
     if (given)
@@ -344,7 +339,7 @@ static int read_section(PyObject *o, const ub_where *where, const char *name, co
     if (!d)
         return -1;
     char named_path[ERRBUF];
-    ub_where w = where->path[0] ? *where : (ub_where){name, ".", where->hint};
+    ub_where w = {name, ".", ""};
     int rc = check_keys(d, name, s);
     for (int i = 0; i < s->count && !rc; i++) {
         const ub_param *p = &s->rows[i];
@@ -384,8 +379,7 @@ static int was_given(const ub_param_section *s, uint64_t given, const char *key)
 static int parse_camera(PyObject *o, ub_camera *cam)
 {
     ub_camera_input in;
-    ub_where w = {"", "", ""};
-    if (read_section(o, &w, "camera", &ub_camera_section, &in, NULL))
+    if (read_section(o, "camera", &ub_camera_section, &in, NULL))
         return -1;
     const char *err = ub_camera_from_input(cam, &in);
     if (err) {
@@ -403,8 +397,7 @@ static int parse_object(PyObject *o, const char *name, ub_object *obj)
         PyErr_NoMemory();
         return -1;
     }
-    ub_where w = {"", "", ""};
-    int rc = read_section(o, &w, name, &ub_object_section, in, NULL);
+    int rc = read_section(o, name, &ub_object_section, in, NULL);
     if (!rc) {
         const char *err = ub_object_from_input(obj, in);
         if (err) {
@@ -452,9 +445,8 @@ static int parse_shading(PyObject *o, ub_shading *sh)
         PyErr_NoMemory();
         return -1;
     }
-    ub_where w = {"", "", ""};
     memset(sh, 0, sizeof *sh);
-    int rc = read_section(o ? o : Py_None, &w, "shading", &ub_shading_section, in, NULL);
+    int rc = read_section(o ? o : Py_None, "shading", &ub_shading_section, in, NULL);
     if (!rc) {
         ub_shading_from_input(sh, in);
         for (int i = 0; i < in->lights_count && !rc; i++) {
@@ -564,8 +556,7 @@ static int parse_render_options(PyObject *kw, const ub_camera *cam, const ub_sha
 {
     ub_render_input in;
     uint64_t given;
-    ub_where w = {"", "", ""};
-    if (read_section(kw, &w, "", &ub_render_section, &in, &given))
+    if (read_section(kw, "", &ub_render_section, &in, &given))
         return -1;
     opt->threads = in.threads;
     opt->tile_size = in.tile_size;
@@ -892,8 +883,8 @@ static PyObject *py_camera_ray(PyObject *self, PyObject *args)
         return NULL;
     ub_camera cam;
     double x, y;
-    if (parse_camera(cam_o, &cam) || read_double(x_o, "x", -HUGE_VAL, HUGE_VAL, 0, "", &x)
-        || read_double(y_o, "y", -HUGE_VAL, HUGE_VAL, 0, "", &y))
+    if (parse_camera(cam_o, &cam) || read_double(x_o, "x", -HUGE_VAL, HUGE_VAL, "", &x)
+        || read_double(y_o, "y", -HUGE_VAL, HUGE_VAL, "", &y))
         return NULL;
     double o[3], d[3], t0, t1;
     ub_camera_ray(&cam, x, y, o, d, &t0, &t1);

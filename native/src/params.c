@@ -6,6 +6,8 @@
 #include "render.h"
 
 #define ROWS(table) (table), (int)(sizeof(table) / sizeof((table)[0]))
+/* A row's default values, written in the row (NULL: zeros). */
+#define D(...) ((const double[]){__VA_ARGS__})
 
 /* Row builders: key, record field, shape, range, defaults, description. */
 #define FIELD_OF(record, field) offsetof(record, field)
@@ -24,9 +26,6 @@
     {#key, UB_PARAM_LIST, FIELD_OF(rec, key), r, c, lo, hi, def, NULL, flags, text, nmin, nmax, ndef,         \
      FIELD_OF(rec, key##_count), sizeof(((rec *)0)->key[0]), NULL}
 
-/* zero serves vectors and matrices too: 16 zeros. */
-static const double zero[16] = {0.0}, one[1] = {1.0}, half[1] = {0.5};
-static const double gray[3] = {0.8, 0.8, 0.8}, white[3] = {1.0, 1.0, 1.0};
 
 const char *const ub_kind_names[] = {"quaternion_julia", "quaternion_mandelbrot", "julia_stack", "cubic_locus",
                                      "ifs", NULL};
@@ -41,64 +40,58 @@ static const char *const shadow_modes[] = {"none", "hard", "soft", NULL};
 
 /* ------------------------------------------------------------------ object */
 
-/* The paper's dendrite-like mu of the benchmark, the 1-i-j slice at k = 0, identity placement. */
-static const double default_mu[4] = {-0.2, 0.8, 0.0, 0.0};
-static const double default_basis[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
-static const double identity4[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-/* Section 5 defaults: Fig. 4's stack of real c, the connectedness locus proper, the Sierpinski
- * tetrahedron. */
-static const double default_path[4] = {-1.5, 0.0, 0.25, 0.0};
+/* Defaults: the paper's dendrite-like mu of the benchmark, the 1-i-j slice at k = 0, identity
+ * placement; for section 5, Fig. 4's stack of real c, the connectedness locus proper and the
+ * Sierpinski tetrahedron (these maps). */
 static const double default_maps[48] = {
     0.5, 0, 0, 0.5,  0, 0.5, 0, 0.5,   0, 0, 0.5, 0.5,
     0.5, 0, 0, 0.5,  0, 0.5, 0, -0.5,  0, 0, 0.5, -0.5,
     0.5, 0, 0, -0.5, 0, 0.5, 0, 0.5,   0, 0, 0.5, -0.5,
     0.5, 0, 0, -0.5, 0, 0.5, 0, -0.5,  0, 0, 0.5, 0.5,
 };
-static const double default_iterations[1] = {16}, default_bailout[1] = {4.0}, default_epsilon[1] = {1e-3};
-static const double default_max_step[1] = {10.0}, default_max_steps[1] = {2000}, default_bisection[1] = {10};
-static const double default_alpha[1] = {1e-3}, default_stack_height[1] = {2.0}, default_extent[1] = {2.0};
-static const double default_ifs_depth[1] = {6}, default_cubic[1] = {UB_CUBIC_BOTH};
 
 #define OBJ ub_object_input
 static const ub_param object_rows[] = {
     {"name", UB_PARAM_STRING, FIELD_OF(OBJ, name), 1, 1, 0, UB_MAX_NAME - 1, NULL, NULL, 0,
      "the caller's name of the object, used in messages instead of objects[i]", 0, 0, 0, 0, 0, NULL},
-    CHOICE(OBJ, kind, ub_kind_names, zero, "family of fractal (section 5)"),
-    VECTOR(OBJ, mu, 4, -1e3, 1e3, default_mu, 0, "constant mu of f(z) = z^2 + mu (components 1, i, j, k)"),
-    REAL(OBJ, theta, -1e6, 1e6, zero, "rotation of the Julia set before it is lifted to 4-D (eq. 5-6), radians"),
-    MATRIX(OBJ, slice_basis, 4, 3, -HUGE_VAL, HUGE_VAL, default_basis, 0,
+    CHOICE(OBJ, kind, ub_kind_names, NULL, "family of fractal (section 5)"),
+    VECTOR(OBJ, mu, 4, -1e3, 1e3, D(-0.2, 0.8, 0.0, 0.0), 0,
+           "constant mu of f(z) = z^2 + mu (components 1, i, j, k)"),
+    REAL(OBJ, theta, -1e6, 1e6, NULL, "rotation of the Julia set before it is lifted to 4-D (eq. 5-6), radians"),
+    MATRIX(OBJ, slice_basis, 4, 3, -HUGE_VAL, HUGE_VAL, D(1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0), 0,
            "object-space axes in the quaternions (4x3, orthonormal columns): the 3-D slice"),
-    VECTOR(OBJ, slice_origin, 4, -1e3, 1e3, zero, 0, "quaternion at the object's origin"),
-    MATRIX(OBJ, matrix, 4, 4, -1e9, 1e9, identity4, 0, "object -> world, affine 4x4 (Blender's matrix_world)"),
-    INTEGER(OBJ, max_iterations, 1, UB_MAX_ITERATIONS, default_iterations, "iterations of f per point"),
-    REAL(OBJ, bailout, 1.0, UB_MAX_BAILOUT, default_bailout, "escape radius; never below the set's bound"),
-    CHOICE(OBJ, threshold_mode, threshold_modes, zero,
+    VECTOR(OBJ, slice_origin, 4, -1e3, 1e3, NULL, 0, "quaternion at the object's origin"),
+    MATRIX(OBJ, matrix, 4, 4, -1e9, 1e9, D(1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1), 0,
+           "object -> world, affine 4x4 (Blender's matrix_world)"),
+    INTEGER(OBJ, max_iterations, 1, UB_MAX_ITERATIONS, D(16), "iterations of f per point"),
+    REAL(OBJ, bailout, 1.0, UB_MAX_BAILOUT, D(4.0), "escape radius; never below the set's bound"),
+    CHOICE(OBJ, threshold_mode, threshold_modes, NULL,
            "hit threshold: the pixel footprint at each depth / detail, or a fixed epsilon"),
-    REAL(OBJ, epsilon, 1e-7, 1.0, default_epsilon, "fixed threshold mode: hit threshold in object units"),
-    REAL(OBJ, detail, 1e-3, 1e3, one, "pixel threshold mode: threshold = pixel footprint / detail"),
-    REAL(OBJ, step_factor, 0.01, 1.0, one, "fraction of the distance estimate taken per step"),
-    REAL(OBJ, max_step, 1e-6, 1e6, default_max_step, "longest step along a ray, world units (section 3.4)"),
-    INTEGER(OBJ, max_steps, 1, UB_MAX_MARCH_STEPS_LIMIT, default_max_steps, "most marching steps per ray"),
-    INTEGER(OBJ, bisection_steps, 0, UB_MAX_BISECTION, default_bisection, "bisection steps refining each hit"),
-    VECTOR(OBJ, color, 3, 0.0, 1e6, gray, 0, "surface colour, scene-linear RGB"),
-    CHOICE(OBJ, normal_method, normal_methods, zero, "normal approximation (section 4.1)"),
-    REAL(OBJ, normal_alpha, 1e-9, 1e3, default_alpha, "gradient step scale alpha of eq. 15"),
-    REAL(OBJ, normal_delta, 0.0, 4.0, one, "depth exponent delta of the gradient step (Table 1)"),
-    REAL(OBJ, reflectivity, 0.0, 1.0, zero, "fraction of light the surface mirrors"),
-    CHOICE(OBJ, color_mode, color_modes, zero, "surface colour: base colour, or the ramp over a quantity"),
+    REAL(OBJ, epsilon, 1e-7, 1.0, D(1e-3), "fixed threshold mode: hit threshold in object units"),
+    REAL(OBJ, detail, 1e-3, 1e3, D(1.0), "pixel threshold mode: threshold = pixel footprint / detail"),
+    REAL(OBJ, step_factor, 0.01, 1.0, D(1.0), "fraction of the distance estimate taken per step"),
+    REAL(OBJ, max_step, 1e-6, 1e6, D(10.0), "longest step along a ray, world units (section 3.4)"),
+    INTEGER(OBJ, max_steps, 1, UB_MAX_MARCH_STEPS_LIMIT, D(2000), "most marching steps per ray"),
+    INTEGER(OBJ, bisection_steps, 0, UB_MAX_BISECTION, D(10), "bisection steps refining each hit"),
+    VECTOR(OBJ, color, 3, 0.0, 1e6, D(0.8, 0.8, 0.8), 0, "surface colour, scene-linear RGB"),
+    CHOICE(OBJ, normal_method, normal_methods, NULL, "normal approximation (section 4.1)"),
+    REAL(OBJ, normal_alpha, 1e-9, 1e3, D(1e-3), "gradient step scale alpha of eq. 15"),
+    REAL(OBJ, normal_delta, 0.0, 4.0, D(1.0), "depth exponent delta of the gradient step (Table 1)"),
+    REAL(OBJ, reflectivity, 0.0, 1.0, NULL, "fraction of light the surface mirrors"),
+    CHOICE(OBJ, color_mode, color_modes, NULL, "surface colour: base colour, or the ramp over a quantity"),
     LIST(OBJ, color_ramp, 1, 3, 0.0, 1e6, 2, UB_MAX_RAMP, NULL, 0, UB_PARAM_NONE_OK,
          "colour ramp: RGB colours uniformly spaced over [0, 1]; None: no ramp"),
-    REAL(OBJ, ramp_scale, -1e6, 1e6, one, "ramp position = value * ramp_scale + ramp_offset"),
-    REAL(OBJ, ramp_offset, -1e6, 1e6, zero, "ramp position = value * ramp_scale + ramp_offset"),
-    LIST(OBJ, path, 1, 2, -1e3, 1e3, 1, UB_MAX_PATH, default_path, 2, 0,
+    REAL(OBJ, ramp_scale, -1e6, 1e6, D(1.0), "ramp position = value * ramp_scale + ramp_offset"),
+    REAL(OBJ, ramp_offset, -1e6, 1e6, NULL, "ramp position = value * ramp_scale + ramp_offset"),
+    LIST(OBJ, path, 1, 2, -1e3, 1e3, 1, UB_MAX_PATH, D(-1.5, 0.0, 0.25, 0.0), 2, 0,
          "Julia stack: (Re c, Im c) points of the c-path, bottom to top"),
-    REAL(OBJ, stack_height, 1e-6, 1e6, default_stack_height, "Julia stack: height along object z"),
-    CHOICE(OBJ, cubic_component, cubic_components, default_cubic,
+    REAL(OBJ, stack_height, 1e-6, 1e6, D(2.0), "Julia stack: height along object z"),
+    CHOICE(OBJ, cubic_component, cubic_components, D(UB_CUBIC_BOTH),
            "cubic locus: which critical orbits must stay bounded"),
-    REAL(OBJ, extent, 1e-6, 1e3, default_extent, "cubic locus: radius of the 4-D ball it is cut to"),
+    REAL(OBJ, extent, 1e-6, 1e3, D(2.0), "cubic locus: radius of the 4-D ball it is cut to"),
     LIST(OBJ, maps, 3, 4, -1e6, 1e6, 1, UB_MAX_IFS_MAPS, default_maps, 4, 0,
          "IFS: affine maps x -> A x + t as 3x4 rows [A | t], each contracting"),
-    INTEGER(OBJ, ifs_depth, 0, UB_MAX_IFS_DEPTH, default_ifs_depth, "IFS: levels of the map hierarchy"),
+    INTEGER(OBJ, ifs_depth, 0, UB_MAX_IFS_DEPTH, D(6), "IFS: levels of the map hierarchy"),
 };
 #undef OBJ
 const ub_param_section ub_object_section = {"object", ROWS(object_rows), sizeof(ub_object_input)};
@@ -119,51 +112,46 @@ const ub_param_section ub_camera_section = {"camera", ROWS(camera_rows), sizeof(
 
 /* ------------------------------------------------------------------ light */
 
-static const double down[3] = {0.0, 0.0, -1.0}, quarter_pi[1] = {M_PI / 4}, default_blend[1] = {0.15};
 
 #define LIGHT ub_light_input
 static const ub_param light_rows[] = {
-    CHOICE(LIGHT, type, light_types, zero, "Blender's light types"),
-    VECTOR(LIGHT, position, 3, -1e9, 1e9, zero, 0, "world position (point, spot, area)"),
-    VECTOR(LIGHT, direction, 3, -HUGE_VAL, HUGE_VAL, down, 0, "where the light points, non-zero (sun, spot, area)"),
-    VECTOR(LIGHT, color, 3, 0.0, 1e12, white, 0,
+    CHOICE(LIGHT, type, light_types, NULL, "Blender's light types"),
+    VECTOR(LIGHT, position, 3, -1e9, 1e9, NULL, 0, "world position (point, spot, area)"),
+    VECTOR(LIGHT, direction, 3, -HUGE_VAL, HUGE_VAL, D(0.0, 0.0, -1.0), 0, "where the light points, non-zero (sun, spot, area)"),
+    VECTOR(LIGHT, color, 3, 0.0, 1e12, D(1.0, 1.0, 1.0), 0,
            "irradiance scale: sun E = color; point, spot, area E = color / r^2"),
-    REAL(LIGHT, radius, 0.0, 1e9, zero, "source radius (sun: tangent of the angular radius): soft shadows"),
-    REAL(LIGHT, spot_size, 0.0, M_PI, quarter_pi, "spot: full cone angle, radians"),
-    REAL(LIGHT, spot_blend, 0.0, 1.0, default_blend, "spot: fraction of the cone over which it fades in"),
-    FLAG(LIGHT, cast_shadow, one, "whether shadow rays are marched toward it"),
-    FLAG(LIGHT, soft_falloff, zero, "point and spot: Blender's soft falloff, E = color / (r^2 + radius^2)"),
+    REAL(LIGHT, radius, 0.0, 1e9, NULL, "source radius (sun: tangent of the angular radius): soft shadows"),
+    REAL(LIGHT, spot_size, 0.0, M_PI, D(M_PI / 4), "spot: full cone angle, radians"),
+    REAL(LIGHT, spot_blend, 0.0, 1.0, D(0.15), "spot: fraction of the cone over which it fades in"),
+    FLAG(LIGHT, cast_shadow, D(1.0), "whether shadow rays are marched toward it"),
+    FLAG(LIGHT, soft_falloff, NULL, "point and spot: Blender's soft falloff, E = color / (r^2 + radius^2)"),
 };
 #undef LIGHT
 const ub_param_section ub_light_section = {"light", ROWS(light_rows), sizeof(ub_light_input)};
 
 /* ------------------------------------------------------------------ shading */
 
-static const double default_ao_samples[1] = {5}, default_shadows[1] = {UB_SHADOWS_HARD};
-static const double default_fog[3] = {0.5, 0.5, 0.5}, default_glow[3] = {0.4, 0.6, 1.0};
-static const double default_sea_height[1] = {-1.0}, default_wavelength[1] = {0.25}, default_amplitude[1] = {0.01};
-static const double default_sea_color[3] = {0.1, 0.25, 0.4};
 
 #define SH ub_shading_input
 static const ub_param shading_rows[] = {
-    INTEGER(SH, samples, 1, UB_MAX_SAMPLES, one, "anti-aliasing samples per pixel"),
-    REAL(SH, axle_light, 0.0, 1e6, one, "light at the eye (the paper's): 1 lights a white surface facing it to 1"),
-    VECTOR(SH, ambient, 3, 0.0, 1e6, zero, 0, "ambient light, scaled by ambient occlusion"),
-    CHOICE(SH, shadows, shadow_modes, default_shadows, "shadows of the lights"),
-    REAL(SH, ao_strength, 0.0, 1.0, zero, "ambient occlusion strength (0: off)"),
-    REAL(SH, ao_distance, 1e-6, 1e6, half, "world distance of the farthest occlusion sample"),
-    INTEGER(SH, ao_samples, 1, UB_MAX_AO_SAMPLES, default_ao_samples, "occlusion samples along the normal"),
-    INTEGER(SH, reflection_depth, 0, UB_MAX_REFLECTION_DEPTH, zero, "mirror bounces (0: off)"),
-    REAL(SH, fog_density, 0.0, 1e6, zero, "fog f = 1 - exp(-density * distance), per world unit (0: off)"),
-    VECTOR(SH, fog_color, 3, 0.0, 1e6, default_fog, 0, "colour distant surfaces fade toward"),
-    REAL(SH, glow_strength, 0.0, 1e6, zero, "glow from the camera ray's marching steps (0: off)"),
-    VECTOR(SH, glow_color, 3, 0.0, 1e6, default_glow, 0, "colour of the glow"),
-    FLAG(SH, use_sea, zero, "the sea of Fig. 5: a reflective plane z = sea_height with waves"),
-    REAL(SH, sea_height, -1e9, 1e9, default_sea_height, "sea: world z of the plane"),
-    REAL(SH, sea_wavelength, 1e-6, 1e9, default_wavelength, "sea: distance between wave crests"),
-    REAL(SH, sea_amplitude, 0.0, 1e9, default_amplitude, "sea: height of the waves"),
-    VECTOR(SH, sea_color, 3, 0.0, 1e6, default_sea_color, 0, "sea: colour"),
-    REAL(SH, sea_reflectivity, 0.0, 1.0, half, "sea: fraction of light mirrored"),
+    INTEGER(SH, samples, 1, UB_MAX_SAMPLES, D(1.0), "anti-aliasing samples per pixel"),
+    REAL(SH, axle_light, 0.0, 1e6, D(1.0), "light at the eye (the paper's): 1 lights a white surface facing it to 1"),
+    VECTOR(SH, ambient, 3, 0.0, 1e6, NULL, 0, "ambient light, scaled by ambient occlusion"),
+    CHOICE(SH, shadows, shadow_modes, D(UB_SHADOWS_HARD), "shadows of the lights"),
+    REAL(SH, ao_strength, 0.0, 1.0, NULL, "ambient occlusion strength (0: off)"),
+    REAL(SH, ao_distance, 1e-6, 1e6, D(0.5), "world distance of the farthest occlusion sample"),
+    INTEGER(SH, ao_samples, 1, UB_MAX_AO_SAMPLES, D(5), "occlusion samples along the normal"),
+    INTEGER(SH, reflection_depth, 0, UB_MAX_REFLECTION_DEPTH, NULL, "mirror bounces (0: off)"),
+    REAL(SH, fog_density, 0.0, 1e6, NULL, "fog f = 1 - exp(-density * distance), per world unit (0: off)"),
+    VECTOR(SH, fog_color, 3, 0.0, 1e6, D(0.5, 0.5, 0.5), 0, "colour distant surfaces fade toward"),
+    REAL(SH, glow_strength, 0.0, 1e6, NULL, "glow from the camera ray's marching steps (0: off)"),
+    VECTOR(SH, glow_color, 3, 0.0, 1e6, D(0.4, 0.6, 1.0), 0, "colour of the glow"),
+    FLAG(SH, use_sea, NULL, "the sea of Fig. 5: a reflective plane z = sea_height with waves"),
+    REAL(SH, sea_height, -1e9, 1e9, D(-1.0), "sea: world z of the plane"),
+    REAL(SH, sea_wavelength, 1e-6, 1e9, D(0.25), "sea: distance between wave crests"),
+    REAL(SH, sea_amplitude, 0.0, 1e9, D(0.01), "sea: height of the waves"),
+    VECTOR(SH, sea_color, 3, 0.0, 1e6, D(0.1, 0.25, 0.4), 0, "sea: colour"),
+    REAL(SH, sea_reflectivity, 0.0, 1.0, D(0.5), "sea: fraction of light mirrored"),
     {"lights", UB_PARAM_LIST, FIELD_OF(SH, lights), 1, 1, 0, 0, NULL, NULL, 0,
      "lights as dicts of the light section", 0, UB_MAX_LIGHTS, 0, FIELD_OF(SH, lights_count),
      sizeof(ub_light_input), &ub_light_section},
@@ -173,18 +161,17 @@ const ub_param_section ub_shading_section = {"shading", ROWS(shading_rows), size
 
 /* ------------------------------------------------------------------ render() keywords */
 
-static const double default_tile[1] = {32}, default_poll[1] = {0.01};
 
 #define R ub_render_input
 static const ub_param render_rows[] = {
     VECTOR(R, window, 4, -HUGE_VAL, HUGE_VAL, NULL, UB_PARAM_NONE_OK,
            "4 integers (x, y, columns, rows): the part of the image rendered; None: all of it"),
-    INTEGER(R, threads, 0, UB_MAX_THREADS, zero, "render threads (0: one per CPU)"),
-    INTEGER(R, tile_size, 1, 4096, default_tile, "side of the square tiles handed to threads, pixels"),
-    CHOICE(R, simd, ub_isa_names, zero, "kernel: AVX2 + FMA where the CPU has them, or portable (same bits)"),
-    REAL(R, poll_interval, 1e-4, 1.0, default_poll, "seconds between progress and cancel polls"),
-    VECTOR(R, background, 4, 0.0, 1e6, zero, 0, "premultiplied RGBA of missed pixels (alpha within [0, 1])"),
-    INTEGER(R, stride, 1, 4096, one, "render the image pixels (x + stride i, y + stride j) of the window only"),
+    INTEGER(R, threads, 0, UB_MAX_THREADS, NULL, "render threads (0: one per CPU)"),
+    INTEGER(R, tile_size, 1, 4096, D(32), "side of the square tiles handed to threads, pixels"),
+    CHOICE(R, simd, ub_isa_names, NULL, "kernel: AVX2 + FMA where the CPU has them, or portable (same bits)"),
+    REAL(R, poll_interval, 1e-4, 1.0, D(0.01), "seconds between progress and cancel polls"),
+    VECTOR(R, background, 4, 0.0, 1e6, NULL, 0, "premultiplied RGBA of missed pixels (alpha within [0, 1])"),
+    INTEGER(R, stride, 1, 4096, D(1.0), "render the image pixels (x + stride i, y + stride j) of the window only"),
     VECTOR(R, sample_range, 2, -HUGE_VAL, HUGE_VAL, NULL, UB_PARAM_NONE_OK,
            "2 integers (first, count): these samples, added to buffers holding the earlier ones' sum"),
     {"progress", UB_PARAM_CUSTOM, 0, 1, 1, 0, 0, NULL, NULL, UB_PARAM_NONE_OK,

@@ -31,8 +31,7 @@ typedef enum {
 /* Flag bits of a row. */
 enum {
     UB_PARAM_REQUIRED = 1 << 0,   /* no default: the key must be given */
-    UB_PARAM_ALLOW_INF = 1 << 1,  /* +-infinity accepted (NaN never is) */
-    UB_PARAM_NONE_OK = 1 << 2,    /* None means "use the default" */
+    UB_PARAM_NONE_OK = 1 << 1,    /* None means "use the default" */
 };
 
 typedef struct ub_param_section ub_param_section;
@@ -118,12 +117,10 @@ typedef struct {
 
 /* render()'s keywords beside camera, objects and passes. */
 typedef struct {
-    double window[4];         /* whole numbers; window_given 0: the whole image */
-    int window_given;
+    double window[4];         /* whole numbers; not given: the whole image */
     int threads, tile_size, simd, stride;
     double poll_interval, background[4];
-    double sample_range[2];   /* whole numbers (first, count); sample_range_given 0: all samples */
-    int sample_range_given;
+    double sample_range[2];   /* whole numbers (first, count); not given: all samples */
 } ub_render_input;
 
 extern const ub_param_section ub_object_section, ub_camera_section, ub_light_section, ub_shading_section,

@@ -227,6 +227,12 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
     return NULL;
 }
 
+static void to_float3(float out[3], const double in[3])
+{
+    for (int c = 0; c < 3; c++)
+        out[c] = (float)in[c];
+}
+
 const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
 {
     memset(obj, 0, sizeof *obj);
@@ -241,8 +247,7 @@ const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
     obj->max_step = in->max_step;
     obj->max_steps = in->max_steps;
     obj->bisection_steps = in->bisection_steps;
-    for (int c = 0; c < 3; c++)
-        obj->color[c] = (float)in->color[c];
+    to_float3(obj->color, in->color);
     obj->normal_method = (ub_normal_method)in->normal_method;
     obj->normal_alpha = in->normal_alpha;
     obj->normal_delta = in->normal_delta;
@@ -250,8 +255,7 @@ const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
     obj->color_mode = (ub_color_mode)in->color_mode;
     obj->ramp_size = in->color_ramp_count;
     for (int i = 0; i < in->color_ramp_count; i++)
-        for (int c = 0; c < 3; c++)
-            obj->ramp[i][c] = (float)in->color_ramp[i][c];
+        to_float3(obj->ramp[i], in->color_ramp[i]);
     obj->ramp_scale = (float)in->ramp_scale;
     obj->ramp_offset = (float)in->ramp_offset;
     obj->path_count = in->path_count;
@@ -270,8 +274,7 @@ const char *ub_light_from_input(ub_light *L, const ub_light_input *in)
     memset(L, 0, sizeof *L);
     L->type = (ub_light_type)in->type;
     memcpy(L->position, in->position, sizeof L->position);
-    for (int c = 0; c < 3; c++)
-        L->color[c] = (float)in->color[c];
+    to_float3(L->color, in->color);
     L->radius = in->radius;
     L->cast_shadow = in->cast_shadow;
     L->soft_falloff = in->soft_falloff;
@@ -286,12 +289,6 @@ const char *ub_light_from_input(ub_light *L, const ub_light_input *in)
     L->spot_cos_outer = cos(in->spot_size / 2);
     L->spot_cos_inner = L->spot_cos_outer + (1.0 - L->spot_cos_outer) * in->spot_blend;
     return NULL;
-}
-
-static void to_float3(float out[3], const double in[3])
-{
-    for (int c = 0; c < 3; c++)
-        out[c] = (float)in[c];
 }
 
 void ub_shading_from_input(ub_shading *sh, const ub_shading_input *in)

@@ -35,7 +35,7 @@ def test_curve_path(run_bpy):
     assert r["same"] and r["coverage"] > 0.05
     assert r["bez_points"] > 2
     np.testing.assert_allclose(r["bez_ends"], [(-1.2, 0.1), (0.2, 0.3)], atol=1e-6)
-    assert "no curve object is set" in r["errors"][0]
+    assert "no curve object is set" in r["errors"][0] and "fractal '" in r["errors"][0]
     assert "is not a curve" in r["errors"][1]
     assert "Traceback" not in r["_output"]
 
@@ -47,5 +47,5 @@ def test_ifs_map_operators_presets_and_errors(run_bpy):
     assert r["counts"] == [4, 20, 21, 4]
     assert r["ops"] == ["FINISHED", "FINISHED"]
     np.testing.assert_allclose(r["restored"], r["saved"], atol=1e-6)
-    assert "an IFS needs at least one map" in r["outcome"]
+    assert "an IFS needs at least one map" in r["outcome"] and "fractal '" in r["outcome"]
     assert "Traceback" not in r["_output"]
