@@ -438,7 +438,6 @@ typedef struct {
 /* The camera rays' hits of packet (x, y) from the hit buffer into tr, and the empty paths. */
 static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_result *tr, ub_paths *ps)
 {
-    memset(ps, 0, sizeof *ps);
     for (int l = 0; l < UB_LANES; l++) {
         int lx = x + (l < n ? l : n - 1);
         const ub_hit *h = &hb->hits[(size_t)(y + hb->apron_y) * hb->w + (lx + hb->apron_x)];
@@ -448,8 +447,16 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
         tr->steps[l] = h->steps;
         tr->object[l] = h->object;
         ps->W[l] = 1.0f;
+        ps->Wr[l] = 0.0f;
         ps->pass_ao[l] = 1.0f;
         ps->pass_shadow[l] = 1.0f;
+        ps->pass_trap[l] = 0.0f;
+        for (int i = 0; i < 3; i++) {
+            ps->L[i][l] = ps->R[i][l] = 0.0f;
+            ps->pass_diffuse[i][l] = ps->pass_ambient[i][l] = 0.0f;
+            ps->pos0[i][l] = 0.0;
+            ps->nrm0[i][l] = 0.0f;
+        }
     }
     /* The camera rays' own results, kept for the passes: later bounces reuse tr. */
     memcpy(ps->primary_steps, tr->steps, sizeof ps->primary_steps);
