@@ -72,10 +72,13 @@ ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 ZIP_EPOCH = 315532800
 
 
+ZIG_CACHE = ROOT / "build" / "zig-cache"
+
+
 def zig(*args, **kw):
     # SOURCE_DATE_EPOCH: the linker stamps Windows binaries with it instead of the time of the build.
-    env = dict(os.environ, ZIG_GLOBAL_CACHE_DIR=str(ROOT / "build" / "zig-cache"),
-               ZIG_LOCAL_CACHE_DIR=str(ROOT / "build" / "zig-cache"), SOURCE_DATE_EPOCH=str(ZIP_EPOCH))
+    env = dict(os.environ, ZIG_GLOBAL_CACHE_DIR=str(ZIG_CACHE), ZIG_LOCAL_CACHE_DIR=str(ZIG_CACHE),
+               SOURCE_DATE_EPOCH=str(ZIP_EPOCH))
     return subprocess.run([sys.executable, "-m", "ziglang", *args], check=True, env=env, **kw)
 
 
@@ -195,8 +198,11 @@ def pack_wheel(platform, binary, out_dir):
 
 
 def main():
+    global ZIG_CACHE
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(ROOT / "dist" / "release"))
+    ap.add_argument("--work", default=str(ROOT / "build" / "cross"), help="objects and inputs")
+    ap.add_argument("--zig-cache", default=str(ZIG_CACHE), help="zig's cache (a new one builds from scratch)")
     ap.add_argument("platforms", nargs="*", default=list(TARGETS))
     args = ap.parse_args()
     unknown = [p for p in args.platforms if p not in TARGETS]
@@ -204,7 +210,8 @@ def main():
         sys.exit("cross_build: unknown platform(s) %s; known: %s" % (", ".join(unknown), ", ".join(TARGETS)))
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    work = ROOT / "build" / "cross"
+    ZIG_CACHE = pathlib.Path(args.zig_cache)
+    work = pathlib.Path(args.work)
     for platform in args.platforms:
         for old in out.glob("unbound_core-*-%s.whl" % TARGETS[platform][1]):
             old.unlink()
