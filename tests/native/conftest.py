@@ -16,6 +16,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, os.environ.get("UNBOUND_CORE_PATH") or str(ROOT / "build" / "wheel"))
 # Under ASan/UBSan the core runs several times slower: timing checks are skipped there.
 SANITIZED = bool(os.environ.get("UNBOUND_SANITIZED"))
+# Under qemu-user (tools/foreign.py linux-arm64) every instruction is emulated, ~10x slower and
+# unevenly so: wall-clock latencies say nothing about the core there.
+EMULATED = bool(os.environ.get("UNBOUND_EMULATED"))
+TIMING_UNRELIABLE = SANITIZED or EMULATED
 
 import unbound_core as uc  # noqa: E402
 

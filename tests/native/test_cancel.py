@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import SANITIZED, alloc_passes, make_camera
+from conftest import TIMING_UNRELIABLE, alloc_passes, make_camera
 
-pytestmark = pytest.mark.skipif(SANITIZED, reason="timing: the sanitizers slow the core several-fold")
+pytestmark = pytest.mark.skipif(TIMING_UNRELIABLE, reason="timing: the sanitizers or an emulated CPU slow the core "
+                                                            "several-fold")
 
 HEAVY_OBJECT = dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=60, detail=2.0, reflectivity=0.5)
 HEAVY_SHADING = dict(shadows="soft", reflection_depth=2, use_sea=True, sea_height=-1.1, sea_reflectivity=0.4,
