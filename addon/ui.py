@@ -27,7 +27,6 @@ class FractalPanel(UnboundPanel):
 
 class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
     bl_label = "Unbound Fractal"
-    bl_order = -1   # above Blender's Empty panel: what the object is comes first
 
     def draw_header_preset(self, context):
         operators.UNBOUND_PT_fractal_presets.draw_panel_header(self.layout)
@@ -87,7 +86,6 @@ class FractalHint:
     bl_region_type = 'WINDOW'
     bl_label = "Unbound Fractal"
     bl_options = {'HIDE_HEADER'}
-    bl_order = -1
 
     @classmethod
     def poll(cls, context):
