@@ -234,16 +234,23 @@ def world_color(scene):
     if world is None:
         return (0.0, 0.0, 0.0)
     color, strength = tuple(world.color), 1.0
-    if world.use_nodes and world.node_tree:
-        out = next((n for n in world.node_tree.nodes if n.type == 'OUTPUT_WORLD' and n.is_active_output), None)
-        link = out and next(iter(out.inputs["Surface"].links), None)
-        if link and link.from_node.type == 'BACKGROUND':
-            bg = link.from_node
-            if not bg.inputs["Color"].is_linked:
-                color = tuple(bg.inputs["Color"].default_value)[:3]
-            if not bg.inputs["Strength"].is_linked:
-                strength = bg.inputs["Strength"].default_value
+    bg = background_node(world)
+    if bg is not None:
+        if not bg.inputs["Color"].is_linked:
+            color = tuple(bg.inputs["Color"].default_value)[:3]
+        if not bg.inputs["Strength"].is_linked:
+            strength = bg.inputs["Strength"].default_value
     return (color[0] * strength, color[1] * strength, color[2] * strength)
+
+
+def background_node(world):
+    """The Background node feeding the active World Output of a world that uses nodes, or None
+    (world_color then reads the world's own colour; the World tab shows the one it reads)."""
+    if not (world.use_nodes and world.node_tree):
+        return None
+    out = next((n for n in world.node_tree.nodes if n.type == 'OUTPUT_WORLD' and n.is_active_output), None)
+    link = out and next(iter(out.inputs["Surface"].links), None)
+    return link.from_node if link and link.from_node.type == 'BACKGROUND' else None
 
 
 def background(scene):

@@ -4,47 +4,312 @@ import math
 import os
 
 import bpy
+from mathutils import Euler
 from bl_operators.presets import AddPresetBase
+from bl_ui.utils import PresetPanel
 
 from . import passes, utils
-from .properties import FRACTAL_KINDS, UnboundObjectSettings, UnboundSceneSettings, display_radius
+from .properties import (FRACTAL_KINDS, MU_STEP, UnboundObjectSettings, UnboundSceneSettings, _sync_display_size,
+                         display_radius)
 
-# Presets shipped with the extension; the user's own (Add Preset) go where Blender keeps presets,
-# scripts/presets/unbound/fractal, and the menu lists both.
+# Presets shipped with the extension, read-only; the user's own (the + of a preset popover) go where
+# Blender keeps presets, scripts/presets/unbound/<kind>, and the popover lists both. Two kinds:
+# fractal presets hold the active object's parameters (Object.unbound), look presets the scene's
+# shading (Scene.unbound): applying one never changes what the other holds.
 PRESET_SUBDIR = "unbound/fractal"
+LOOK_PRESET_SUBDIR = "unbound/look"
 BUNDLED_PRESETS = os.path.join(os.path.dirname(__file__), "presets", "fractal")
+BUNDLED_LOOK_PRESETS = os.path.join(os.path.dirname(__file__), "presets", "look")
+
+# What a preset holds: every setting of the PropertyGroup, read from its annotations so that a new
+# one is never left out, except a datablock (the ramp texture, the path curve), the map shown for
+# editing, and machine-specific render or viewport settings.
+FRACTAL_PRESET_EXCLUDE = {"is_fractal", "color_ramp_texture", "path_curve", "ifs_active_map"}
+LOOK_PRESET_EXCLUDE = {"tile_size", "simd"}
 
 
-class UNBOUND_MT_fractal_presets(bpy.types.Menu):
-    bl_label = "Fractal Presets"
-    preset_subdir = PRESET_SUBDIR
+def fractal_preset_names():
+    return [name for name in UnboundObjectSettings.__annotations__ if name not in FRACTAL_PRESET_EXCLUDE]
+
+
+def look_preset_names():
+    return [name for name in UnboundSceneSettings.__annotations__
+            if name not in LOOK_PRESET_EXCLUDE and not name.startswith("viewport_")]
+
+
+def _float_text(value):
+    """The shortest decimal that gives the same float32 back (Blender stores float properties in
+    single precision): 0.1, not 0.10000000149011612."""
+    import struct
+    single = struct.unpack("f", struct.pack("f", value))[0]
+    for digits in range(6, 10):
+        text = "%.*g" % (digits, value)
+        if struct.unpack("f", struct.pack("f", float(text)))[0] == single:
+            return repr(float(text))
+    return repr(value)
+
+
+def _value_text(value):
+    if isinstance(value, bool) or isinstance(value, (int, str)):
+        return repr(value)
+    if isinstance(value, float):
+        return _float_text(value)
+    return "(%s)" % ", ".join(_value_text(v) for v in value) + ("" if len(value) != 1 else ",")
+
+
+def preset_lines(owner, path, names):
+    """Python lines that set `path`.NAME to owner's value for each name: every value written out in
+    full, an IFS map collection as clear() and one add() per item. Nothing is exec'd or eval'd
+    here (Blender's AddPresetBase runs `preset_defines` through exec(), which Python 3.13 no longer
+    lets define local names, PEP 667)."""
+    lines = []
+    for name in names:
+        value = getattr(owner, name)
+        if isinstance(value, bpy.types.bpy_prop_collection):
+            lines.append("%s.%s.clear()" % (path, name))
+            for item in value:
+                lines.append("item = %s.%s.add()" % (path, name))
+                for sub in item.bl_rna.properties.keys():
+                    if sub not in {"rna_type", "name"}:
+                        lines.append("item.%s = %s" % (sub, _value_text(_plain(getattr(item, sub)))))
+        else:
+            lines.append("%s.%s = %s" % (path, name, _value_text(_plain(value))))
+    return lines
+
+
+def _plain(value):
+    try:
+        return tuple(value[:]) if not isinstance(value, str) else value
+    except TypeError:
+        return value
+
+
+def fractal_preset_text(ob):
+    return "\n".join(["import bpy", "ob = bpy.context.object", ""]
+                     + preset_lines(ob.unbound, "ob.unbound", fractal_preset_names())) + "\n"
+
+
+def look_preset_text(scene):
+    return "\n".join(["import bpy", "scene = bpy.context.scene", ""]
+                     + preset_lines(scene.unbound, "scene.unbound", look_preset_names())) + "\n"
+
+
+def preset_files(folder):
+    """[(display name, path)] of the .py presets in folder, in natural order (20 after 3)."""
+    import re
+    if not folder or not os.path.isdir(folder):
+        return []
+    names = [f for f in os.listdir(folder) if f.lower().endswith(".py") and not f.startswith(".")]
+    names.sort(key=lambda f: tuple(int(t) if t.isdigit() else t for t in re.split(r"(\d+)", f.lower())))
+    return [(bpy.path.display_name(f, title_case=False), os.path.join(folder, f)) for f in names]
+
+
+def user_preset_folders(subdir):
+    """Blender's preset folders for subdir (the user's own and any other script path's)."""
+    return bpy.utils.preset_paths(subdir)
+
+
+def redraw_views(context):
+    """Redraw every area (the 3D views in Rendered shading read the scene anew when they draw)."""
+    wm = context.window_manager
+    for window in wm.windows:
+        for area in window.screen.areas:
+            area.tag_redraw()
+
+
+class PresetMenu:
+    """What the fractal and look preset popovers (and menus) share: the bundled presets first,
+    their remove button greyed out (they ship with the extension), then the user's own, each with
+    its remove button, then a name field and + to save the current settings."""
     preset_operator = "script.execute_preset"
-    preset_add_operator = "unbound.fractal_preset_add"
 
     def draw(self, context):
-        # Menu.draw_preset with the bundled folder searched too.
-        self.path_menu([BUNDLED_PRESETS] + bpy.utils.preset_paths(self.preset_subdir), self.preset_operator,
-                       filter_ext=lambda ext: ext.lower() == ".py", add_operator=self.preset_add_operator,
-                       display_name=lambda name: bpy.path.display_name(name, title_case=False))
+        layout = self.layout
+        layout.emboss = 'PULLDOWN_MENU'
+        layout.operator_context = 'EXEC_DEFAULT'   # as Blender's preset popovers: + saves at once
+        col = layout.column(align=True)
+        seen = set()
+        folders = [(self.bundled, True)] + [(f, False) for f in user_preset_folders(self.preset_subdir)]
+        for folder, bundled in folders:
+            real = os.path.realpath(folder)
+            if real in seen:
+                continue
+            seen.add(real)
+            for name, path in preset_files(folder):
+                row = col.row(align=True)
+                props = row.operator(self.preset_operator, text=name, translate=False)
+                props.filepath = path
+                props.menu_idname = self.bl_idname
+                sub = row.row(align=True)
+                sub.enabled = not bundled
+                props = sub.operator(self.preset_add_operator, text="", icon='REMOVE')
+                props.name = name
+                props.remove_name = True
+        wm = context.window_manager
+        layout.separator()
+        row = layout.row()
+        sub = row.row()
+        sub.emboss = 'NORMAL'
+        sub.prop(wm, "preset_name", text="")
+        props = row.operator(self.preset_add_operator, text="", icon='ADD')
+        props.name = wm.preset_name
 
 
-class UNBOUND_OT_fractal_preset_add(AddPresetBase, bpy.types.Operator):
-    """Save the active fractal's parameters and the scene's Unbound shading as a preset, or remove one"""
+class FractalPresetMenu(PresetMenu):
+    bl_label = "Fractal Presets"
+    preset_subdir = PRESET_SUBDIR
+    bundled = BUNDLED_PRESETS
+    preset_add_operator = "unbound.fractal_preset_add"
+
+    @classmethod
+    def post_cb(cls, context, filepath):
+        """After a fractal preset ran: Python's property writes tag nothing, so tag the object for
+        the depsgraph (F12, the bounding sphere's handler, drivers), size its sphere now and redraw
+        the views (the Rendered viewport reads the scene anew when it draws)."""
+        ob = context.object
+        if utils.is_fractal(ob):
+            ob.update_tag()
+            _sync_display_size(ob)
+        redraw_views(context)
+
+
+class LookPresetMenu(PresetMenu):
+    bl_label = "Look Presets"
+    preset_subdir = LOOK_PRESET_SUBDIR
+    bundled = BUNDLED_LOOK_PRESETS
+    preset_add_operator = "unbound.look_preset_add"
+
+    @classmethod
+    def post_cb(cls, context, filepath):
+        """After a look preset ran: tag the scene (and its world, which fog may read) and redraw."""
+        context.scene.update_tag()
+        redraw_views(context)
+
+
+class UNBOUND_MT_fractal_presets(FractalPresetMenu, bpy.types.Menu):
+    """Fractal presets as a menu (scripts and older layouts; the panel header has the popover)"""
+
+
+class UNBOUND_MT_look_presets(LookPresetMenu, bpy.types.Menu):
+    """Look presets as a menu"""
+
+
+class UNBOUND_PT_fractal_presets(FractalPresetMenu, PresetPanel, bpy.types.Panel):
+    """The fractal presets popover in the Unbound Fractal panel's header, as Cycles' sampling presets"""
+    draw = PresetMenu.draw
+
+
+class UNBOUND_PT_look_presets(LookPresetMenu, PresetPanel, bpy.types.Panel):
+    """The look presets popover in the Render tab's Unbound panel header"""
+    draw = PresetMenu.draw
+
+
+class PresetOperator:
+    """Save the current settings as a preset in the user's preset folder, or remove one of the
+    user's presets. Bundled presets cannot be removed: that is reported, never silently skipped."""
+    bl_options = {'REGISTER', 'INTERNAL'}
+
+    name: bpy.props.StringProperty(name="Name", description="Name of the preset, used to make the file name",
+                                   maxlen=64, options={'SKIP_SAVE'})
+    remove_name: bpy.props.BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'})
+    remove_active: bpy.props.BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'})
+
+    def menu(self):
+        return getattr(bpy.types, self.preset_menu)
+
+    def execute(self, context):
+        if self.remove_name or self.remove_active:
+            return self.remove(context)
+        name = self.name.strip()
+        if not name:
+            self.report({'ERROR'}, "Give the preset a name")
+            return {'CANCELLED'}
+        filename = AddPresetBase.as_filename(name)
+        if not filename:
+            self.report({'ERROR'}, "'%s' does not make a file name" % name)
+            return {'CANCELLED'}
+        bundled = {os.path.basename(p).lower() for _, p in preset_files(self.bundled)}
+        if (filename + ".py").lower() in bundled:
+            self.report({'WARNING'}, "Cannot save preset \"%s\": a bundled preset has that name" % name)
+            return {'CANCELLED'}
+        folder = bpy.utils.user_resource('SCRIPTS', path=os.path.join("presets", self.preset_subdir), create=True)
+        if not folder:
+            self.report({'ERROR'}, "Failed to create the presets folder")
+            return {'CANCELLED'}
+        path = os.path.join(folder, filename + ".py")
+        if os.path.exists(path):
+            self.report({'WARNING'}, "Cannot save preset \"%s\", as the name already exists" % name)
+            return {'CANCELLED'}
+        text = self.preset_text(context)   # all of it before the file is opened: never a partial file
+        tmp = path + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+        wm = context.window_manager
+        if name == wm.preset_name:
+            wm.preset_name = "New Preset"
+        self.menu().bl_label = bpy.path.display_name(filename, title_case=False)
+        self.report({'INFO'}, "Saved preset \"%s\" (%s)" % (name, path))
+        return {'FINISHED'}
+
+    def remove(self, context):
+        name = self.menu().bl_label if self.remove_active else self.name
+        wanted = {name.lower(), AddPresetBase.as_filename(name).lower() + ".py"}
+
+        def find(folders):
+            return next((path for folder in folders for shown, path in preset_files(folder)
+                         if shown.lower() in wanted or os.path.basename(path).lower() in wanted), None)
+        path = find(user_preset_folders(self.preset_subdir))
+        if path is None:
+            if find([self.bundled]):
+                self.report({'WARNING'}, "\"%s\" is a bundled preset and cannot be removed" % name)
+            else:
+                self.report({'WARNING'}, "No preset \"%s\" to remove" % name)
+            return {'CANCELLED'}
+        try:
+            os.remove(path)
+        except OSError as exc:
+            self.report({'ERROR'}, "Unable to remove preset: %s" % exc)
+            return {'CANCELLED'}
+        self.menu().bl_label = "Presets"
+        self.report({'INFO'}, "Removed preset \"%s\"" % name)
+        return {'FINISHED'}
+
+    def check(self, _context):
+        self.name = AddPresetBase.as_filename(self.name.strip())
+
+    def invoke(self, context, _event):
+        if self.remove_active or self.remove_name:
+            return self.execute(context)
+        return context.window_manager.invoke_props_dialog(self)
+
+
+class UNBOUND_OT_fractal_preset_add(PresetOperator, bpy.types.Operator):
+    """Save the active fractal's parameters as a preset, or remove one of yours"""
     bl_idname = "unbound.fractal_preset_add"
     bl_label = "Add Fractal Preset"
     preset_menu = "UNBOUND_MT_fractal_presets"
     preset_subdir = PRESET_SUBDIR
-    preset_defines = ["ob = bpy.context.object", "scene = bpy.context.scene"]
-    # Every fractal and scene setting, read from the PropertyGroups so a new one is never left out;
-    # not the ramp texture (a datablock) nor machine-specific render or viewport settings.
-    preset_values = (["ob.unbound." + name for name in UnboundObjectSettings.__annotations__
-                      if name not in {"is_fractal", "color_ramp_texture", "path_curve", "ifs_active_map"}]
-                     + ["scene.unbound." + name for name in UnboundSceneSettings.__annotations__
-                        if name not in {"tile_size", "simd"} and not name.startswith("viewport_")])
+    bundled = BUNDLED_PRESETS
 
     @classmethod
     def poll(cls, context):
         return utils.is_fractal(context.object)
+
+    def preset_text(self, context):
+        return fractal_preset_text(context.object)
+
+
+class UNBOUND_OT_look_preset_add(PresetOperator, bpy.types.Operator):
+    """Save the scene's Unbound shading (lighting, effects, sea, samples) as a look preset, or remove one of yours"""
+    bl_idname = "unbound.look_preset_add"
+    bl_label = "Add Look Preset"
+    preset_menu = "UNBOUND_MT_look_presets"
+    preset_subdir = LOOK_PRESET_SUBDIR
+    bundled = BUNDLED_LOOK_PRESETS
+
+    def preset_text(self, context):
+        return look_preset_text(context.scene)
 
 
 class UNBOUND_OT_color_ramp_add(bpy.types.Operator):
@@ -118,6 +383,15 @@ def set_ifs_maps(props, shape):
     props.ifs_active_map = 0
 
 
+ALIGN_ITEMS = [
+    ('WORLD', "World", "Align the new object to the world"),
+    ('VIEW', "View", "Align the new object to the view"),
+    ('CURSOR', "3D Cursor", "Use the 3D cursor orientation for the new object"),
+]
+# Labels of mu's components in the redo panel, as the Object Data tab shows them.
+MU_LABELS = ("Mu 1", "i", "j", "k")
+
+
 class UNBOUND_OT_fractal_add(bpy.types.Operator):
     """Add an Unbound fractal object: an empty whose sphere shows the set's bounding sphere"""
     bl_idname = "object.unbound_fractal_add"
@@ -127,11 +401,54 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
     kind: bpy.props.EnumProperty(name="Kind", description="Family of fractal", items=FRACTAL_KINDS,
                                  default='QUATERNION_JULIA')
     mu: bpy.props.FloatVectorProperty(name="Mu", description="Constant mu of z^2 + mu (1, i, j, k)", size=4,
-                                      default=(-0.2, 0.8, 0.0, 0.0), soft_min=-2.0, soft_max=2.0)
+                                      default=(-0.2, 0.8, 0.0, 0.0), soft_min=-2.0, soft_max=2.0, step=MU_STEP,
+                                      precision=4)
+    align: bpy.props.EnumProperty(name="Align", description="The alignment of the new object", items=ALIGN_ITEMS,
+                                  default='WORLD')
     location: bpy.props.FloatVectorProperty(name="Location", description="Where to place the fractal",
                                             subtype='TRANSLATION', size=3)
+    rotation: bpy.props.FloatVectorProperty(name="Rotation", description="Rotation of the fractal",
+                                            subtype='EULER', size=3)
     use_cursor: bpy.props.BoolProperty(name="At 3D Cursor", description="Place the fractal at the 3D cursor",
                                        default=True, options={'SKIP_SAVE'})
+
+    def invoke(self, context, event):
+        # From the Add menu: a fractal is drawn and rendered only by Unbound, so make it the
+        # scene's engine (scripts calling the operator keep theirs).
+        if context.scene.render.engine != utils.ENGINE_ID:
+            context.scene.render.engine = utils.ENGINE_ID
+            self.report({'INFO'}, "Render engine set to Unbound: only Unbound draws and renders fractals")
+        if not self.properties.is_property_set("rotation") and not self.properties.is_property_set("align"):
+            self.align = context.preferences.edit.object_align
+        return self.execute(context)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(self, "kind")
+        if self.kind == 'QUATERNION_JULIA':
+            col = layout.column(align=True)
+            for i, text in enumerate(MU_LABELS):
+                col.prop(self, "mu", index=i, text=text)
+        layout.separator()
+        layout.prop(self, "align")
+        layout.prop(self, "use_cursor")
+        col = layout.column()
+        col.enabled = not self.use_cursor
+        col.prop(self, "location")
+        layout.column().prop(self, "rotation")
+
+    def rotation_matrix(self, context):
+        """As Blender's primitives: the Rotation after the alignment's own (the view's rotation
+        or the cursor's, written back into Rotation so that the redo panel shows it)."""
+        if self.align == 'VIEW':
+            rv3d = getattr(context, "region_data", None) or getattr(context.space_data, "region_3d", None)
+            if rv3d is not None:
+                self.rotation = rv3d.view_matrix.to_3x3().inverted().to_euler()
+        elif self.align == 'CURSOR':
+            self.rotation = context.scene.cursor.matrix.to_3x3().to_euler()
+        return Euler(self.rotation, 'XYZ')
 
     def execute(self, context):
         if not all(abs(c) <= 1000.0 for c in self.mu):
@@ -149,13 +466,27 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
         elif self.kind in {'QUATERNION_MANDELBROT', 'CUBIC_LOCUS'}:
             props.max_iterations = 24
         ob.empty_display_size = display_radius(ob) or 2.0
-        ob.location = context.scene.cursor.location if self.use_cursor else self.location
+        if self.use_cursor:
+            self.location = context.scene.cursor.location
+        ob.location = self.location
+        ob.rotation_euler = self.rotation_matrix(context)
         collection = context.collection or context.scene.collection
         collection.objects.link(ob)
         for other in context.view_layer.objects:
             other.select_set(False)
         ob.select_set(True)
         context.view_layer.objects.active = ob
+        return {'FINISHED'}
+
+
+class UNBOUND_OT_use_engine(bpy.types.Operator):
+    """Render this scene with Unbound, the engine that draws and renders fractal objects"""
+    bl_idname = "scene.unbound_use_engine"
+    bl_label = "Use Unbound"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        context.scene.render.engine = utils.ENGINE_ID
         return {'FINISHED'}
 
 
@@ -292,8 +623,9 @@ def menu_add(self, context):
                                    icon='MESH_UVSPHERE')
 
 
-classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_setup_compositing, UNBOUND_MT_fractal_presets,
-           UNBOUND_OT_fractal_preset_add, UNBOUND_OT_color_ramp_add, UNBOUND_OT_ifs_shape, UNBOUND_OT_ifs_map_add,
+classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_use_engine, UNBOUND_OT_setup_compositing, UNBOUND_MT_fractal_presets,
+           UNBOUND_MT_look_presets, UNBOUND_PT_fractal_presets, UNBOUND_PT_look_presets,
+           UNBOUND_OT_fractal_preset_add, UNBOUND_OT_look_preset_add, UNBOUND_OT_color_ramp_add, UNBOUND_OT_ifs_shape, UNBOUND_OT_ifs_map_add,
            UNBOUND_OT_ifs_map_remove)
 
 

@@ -1,8 +1,10 @@
-"""Panels: Object tab (fractal parameters), Render tab (engine settings), View Layer tab
-(passes). Shown only when Unbound is the render engine."""
+"""Panels: Object Data tab of a fractal empty (its parameters, where Blender shows what a light or
+a camera is), Render tab (engine settings, performance), World tab (the colour Unbound reads),
+Light tab, View Layer tab (passes). Shown only when Unbound is the render engine; under another
+engine a fractal's tabs say how to see it."""
 import bpy
 
-from . import passes, properties, utils
+from . import export, operators, passes, properties, utils
 
 
 class UnboundPanel:
@@ -16,7 +18,7 @@ class UnboundPanel:
 
 
 class FractalPanel(UnboundPanel):
-    bl_context = "object"
+    bl_context = "data"   # the empty's Object Data tab
 
     @classmethod
     def poll(cls, context):
@@ -26,15 +28,14 @@ class FractalPanel(UnboundPanel):
 class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
     bl_label = "Unbound Fractal"
 
+    def draw_header_preset(self, context):
+        operators.UNBOUND_PT_fractal_presets.draw_panel_header(self.layout)
+
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = True
         props = context.object.unbound
-        row = layout.row(align=True)
-        row.menu("UNBOUND_MT_fractal_presets", text=bpy.types.UNBOUND_MT_fractal_presets.bl_label)
-        row.operator("unbound.fractal_preset_add", text="", icon='ADD')
-        row.operator("unbound.fractal_preset_add", text="", icon='REMOVE').remove_active = True
         layout.prop(props, "kind")
         # Section 5: say which estimates are proven not to overstep the set.
         exact = props.kind in properties.EXACT_KINDS
@@ -44,7 +45,7 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
             # Label the quaternion's components as Blender labels Location X, Y, Z: without a subtype
             # a 4-vector shows one "Mu" label over four unlabelled fields.
             col = layout.column(align=True)
-            for i, text in enumerate(("Mu 1", "i", "j", "k")):
+            for i, text in enumerate(operators.MU_LABELS):
                 col.prop(props, "mu", index=i, text=text)
         elif props.kind == 'JULIA_STACK':
             layout.prop(props, "path_mode")
@@ -77,6 +78,31 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
         if props.kind in properties.SLICED_KINDS:
             layout.prop(props, "theta")
         layout.prop(props, "color")
+
+
+class FractalHint:
+    """Under another render engine a fractal is a bare empty: one line saying why, and a button."""
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_label = "Unbound Fractal"
+    bl_options = {'HIDE_HEADER'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine != utils.ENGINE_ID and utils.is_fractal(context.object)
+
+    def draw(self, context):
+        row = self.layout.row()
+        row.label(text="An Unbound fractal: only the Unbound engine draws it", icon='INFO')
+        row.operator("scene.unbound_use_engine", text="Use Unbound")
+
+
+class UNBOUND_PT_fractal_hint(FractalHint, bpy.types.Panel):
+    bl_context = "data"
+
+
+class UNBOUND_PT_fractal_hint_object(FractalHint, bpy.types.Panel):
+    bl_context = "object"
 
 
 class UNBOUND_UL_ifs_maps(bpy.types.UIList):
@@ -158,16 +184,57 @@ class UNBOUND_PT_render(UnboundPanel, bpy.types.Panel):
     bl_label = "Unbound"
     bl_context = "render"
 
+    def draw_header_preset(self, context):
+        operators.UNBOUND_PT_look_presets.draw_panel_header(self.layout)
+
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
         settings = context.scene.unbound
         layout.prop(settings, "samples")
-        layout.prop(settings, "tile_size")
-        layout.prop(settings, "simd")
         layout.prop(context.scene.render, "film_transparent")
         layout.operator("scene.unbound_setup_compositing", icon='NODETREE')
+
+
+class UNBOUND_PT_performance(UnboundPanel, bpy.types.Panel):
+    """Blender's Performance settings as Cycles lays them out: threads, then Unbound's tiles and kernel"""
+    bl_label = "Performance"
+    bl_context = "render"
+
+    def draw(self, context):
+        pass
+
+
+class UNBOUND_PT_performance_threads(UnboundPanel, bpy.types.Panel):
+    bl_label = "Threads"
+    bl_context = "render"
+    bl_parent_id = "UNBOUND_PT_performance"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        rd = context.scene.render
+        col = layout.column()
+        col.prop(rd, "threads_mode")
+        sub = col.column(align=True)
+        sub.enabled = rd.threads_mode == 'FIXED'
+        sub.prop(rd, "threads")
+
+
+class UNBOUND_PT_performance_kernel(UnboundPanel, bpy.types.Panel):
+    bl_label = "Kernel"
+    bl_context = "render"
+    bl_parent_id = "UNBOUND_PT_performance"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.unbound
+        layout.prop(settings, "tile_size")
+        layout.prop(settings, "simd")
 
 
 class RenderSubPanel(UnboundPanel):
@@ -287,6 +354,38 @@ class UNBOUND_PT_light(UnboundPanel, bpy.types.Panel):
                 sub.prop(light, "size_y", text="Y")
 
 
+class UNBOUND_PT_world(UnboundPanel, bpy.types.Panel):
+    """The world's colour as Unbound reads it: the Background node's Color times Strength when the
+    world uses nodes, else the world's own colour (export.world_color)"""
+    bl_label = "Surface"
+    bl_context = "world"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.world is not None
+
+    def draw(self, context):
+        layout = self.layout
+        world = context.world
+        layout.prop(world, "use_nodes", icon='NODETREE')
+        layout.separator()
+        layout.use_property_split = True
+        bg = export.background_node(world)
+        if bg is None:
+            layout.prop(world, "color")
+            if world.use_nodes:
+                layout.label(text="No Background node feeds the World Output: Unbound uses this colour", icon='INFO')
+            return
+        col = layout.column()
+        for name in ("Color", "Strength"):
+            socket = bg.inputs[name]
+            row = col.row()
+            if socket.is_linked:
+                row.label(text="%s: linked (Unbound reads only an unlinked value)" % name, icon='INFO')
+            else:
+                row.prop(socket, "default_value", text=name)
+
+
 class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
     bl_label = "Unbound Passes"
     bl_context = "view_layer"
@@ -302,14 +401,16 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
                 col.prop(props, p.toggle)
 
 
-classes = (UNBOUND_UL_ifs_maps, UNBOUND_PT_fractal, UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
-           UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects, UNBOUND_PT_render_sea,
-           UNBOUND_PT_light, UNBOUND_PT_passes)
+classes = (UNBOUND_UL_ifs_maps, UNBOUND_PT_fractal_hint, UNBOUND_PT_fractal_hint_object, UNBOUND_PT_fractal,
+           UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
+           UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects,
+           UNBOUND_PT_render_sea, UNBOUND_PT_performance, UNBOUND_PT_performance_threads, UNBOUND_PT_performance_kernel,
+           UNBOUND_PT_world, UNBOUND_PT_light, UNBOUND_PT_passes)
 
-# Blender's own panels that make sense for Unbound (output format, camera, world, object
-# transform ...) list the engines they appear for; add ours as Cycles does, except panels
+# Blender's own panels that make sense for Unbound (output format, colour management, camera, world,
+# object transform ...) list the engines they appear for; add ours as Cycles does, except panels
 # about features Unbound does not have.
-_EXCLUDE = {"RENDER_PT_eevee_performance", "RENDER_PT_color_management", "RENDER_PT_simplify",
+_EXCLUDE = {"RENDER_PT_eevee_performance", "RENDER_PT_simplify",
             "RENDER_PT_freestyle", "VIEWLAYER_PT_layer_passes", "VIEWLAYER_PT_eevee_layer_passes_data",
             "RENDER_PT_gpencil",
             # UNBOUND_PT_light draws what Unbound reads of a light; DATA_PT_spot hangs under an
@@ -320,9 +421,17 @@ _added = []
 
 
 def _builtin_panels():
-    for panel in bpy.types.Panel.__subclasses__():
+    """Blender's panels for BLENDER_RENDER, less the excluded ones and any panel that shares its
+    engine set with an excluded one: the node editor's copies of properties panels (space_node.py's
+    node_panel, e.g. NODE_DATA_PT_light) hold the very same set object, so adding Unbound to the
+    copy would show the excluded original too (two "Light" panels)."""
+    panels = bpy.types.Panel.__subclasses__()
+    excluded_sets = {id(p.COMPAT_ENGINES) for p in panels
+                     if p.__name__ in _EXCLUDE and isinstance(getattr(p, "COMPAT_ENGINES", None), set)}
+    for panel in panels:
         engines = getattr(panel, "COMPAT_ENGINES", None)
-        if engines and 'BLENDER_RENDER' in engines and panel.__name__ not in _EXCLUDE:
+        if (engines and 'BLENDER_RENDER' in engines and panel.__name__ not in _EXCLUDE
+                and id(engines) not in excluded_sets):
             yield panel
 
 

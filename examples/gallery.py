@@ -44,6 +44,13 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)  # Blender's --python does not put the script's folder on the path
 from unbound_extension import add_camera, ensure_extension, new_scene, script_args, set_png_format  # noqa: E402
 PRESET_MENU = "UNBOUND_MT_fractal_presets"
+LOOK_MENU = "UNBOUND_MT_look_presets"
+# The look preset (the scene's shading: Render tab, Unbound panel's header) each fractal preset is
+# shown with; a fractal preset holds the object's parameters only.
+LOOKS = {"basilica": "axle_light", "douady_rabbit": "axle_light", "siegel_disk": "axle_light",
+         "fig_5_dendrite_in_the_sea": "fig_5_sea", "fig_6_surface_close-up": "fig_6_close-up_fog",
+         "fig_7_theta_110": "fine_occlusion", "quaternion_twist": "fine_occlusion"}
+DEFAULT_LOOK = "ambient_occlusion"
 
 # Per preset (file name without .py): the camera (location, target, focal length in mm), the sun
 # (the direction it shines toward and its strength in W/m^2, as in Cycles; None: no sun) and the
@@ -130,6 +137,11 @@ def build_scene(preset, view, width, height):
     result = bpy.ops.script.execute_preset(filepath=preset, menu_idname=PRESET_MENU)
     if result != {'FINISHED'}:
         sys.exit("gallery: could not apply the preset %s" % preset)
+    # ...and the look preset it is shown with, as the Look Presets popover applies it.
+    folder = os.path.join(os.path.dirname(os.path.dirname(preset)), "look")
+    look = os.path.join(folder, LOOKS.get(os.path.splitext(os.path.basename(preset))[0], DEFAULT_LOOK) + ".py")
+    if bpy.ops.script.execute_preset(filepath=look, menu_idname=LOOK_MENU) != {'FINISHED'}:
+        sys.exit("gallery: could not apply the look preset %s" % look)
     return scene, ob
 
 

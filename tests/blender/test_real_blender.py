@@ -127,13 +127,16 @@ def test_gui_panels_screenshots(user_dir):
     assert setup["is_fractal"] and setup["engine"] == "UNBOUND" and setup["window"] == list(SCREEN), setup
     shots = {e["shot"]: e for e in log if "shot" in e}
     assert sorted(shots) == sorted(names), log
-    expect = {"object_tab.png": ("OBJECT", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice",
+    # The fractal's parameters are in the empty's Object Data tab (file names kept).
+    expect = {"object_tab.png": ("DATA", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice",
                                             "UNBOUND_PT_fractal_quality", "UNBOUND_PT_fractal_shading"}),
               # An IFS has no slice; its panel draws the list of maps (a UIList).
-              "object_tab_ifs.png": ("OBJECT", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_quality",
-                                                "UNBOUND_PT_fractal_shading"}),
+              "object_tab_ifs.png": ("DATA", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_quality",
+                                              "UNBOUND_PT_fractal_shading"}),
               "render_tab.png": ("RENDER", {"UNBOUND_PT_render", "UNBOUND_PT_render_viewport",
-                                            "UNBOUND_PT_render_lighting", "UNBOUND_PT_render_effects"}),
+                                            "UNBOUND_PT_render_lighting", "UNBOUND_PT_render_effects",
+                                            "UNBOUND_PT_performance", "UNBOUND_PT_performance_threads",
+                                            "UNBOUND_PT_performance_kernel"}),
               # (Sea starts closed)
               "view_layer_tab.png": ("VIEW_LAYER", {"UNBOUND_PT_passes"})}
     for name, (tab, panels) in expect.items():
@@ -168,7 +171,7 @@ def test_gui_rendered_viewport(user_dir):
         assert e["same_request"] and e["final"] and e["identical"], e
         assert e["levels"] == [[8, 1], [4, 1], [2, 1], [1, 1]], e
     assert steps["changed_mu"]["generation"] > steps["rendered"]["generation"], steps
-    # The Object tab showed the fractal's parameters while the viewport rendered.
+    # The Object Data tab showed the fractal's parameters while the viewport rendered.
     assert {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice"} <= set(steps["rendered"]["panels"]), steps
     # The camera view renders the render border inside the camera's frame only.
     frame = next(e for e in log if e.get("step") == "camera_frame")["rect"]
@@ -194,6 +197,59 @@ def test_gui_rendered_viewport(user_dir):
     fractal = np.abs(ref[..., :3] - world).max(-1) > 10
     assert 0.02 < fractal.mean() < 0.9, fractal.mean()
     assert np.abs(crop[fractal] - world).max(-1).mean() > 20
+
+
+def test_gui_at_home_in_blender(user_dir):
+    """What a Blender user tripped over (issue 17), in the real GUI (gui_ui.py):
+    * Add > Unbound Fractal from the menu with Cycles active switches the engine to Unbound;
+    * Object Data tab of the fractal: its parameters polled and drawn, no hint panel;
+    * Render tab: Blender's Color Management (and sub-panels) and Performance > Threads polled
+      true, Threads drawn;
+    * World tab: the Surface panel polled and drawn;
+    * Light tab: exactly one panel labelled Light polled true (Blender's shader-editor copy shares
+      its engine list with the hidden one), and it is drawn;
+    * the fractal presets popover opens;
+    * a bundled preset applied from the Properties editor with the viewport in Rendered shading:
+      a newer generation reaches a final frame without any redraw asked by the test, rendering the
+      preset's mu, and the empty's sphere is the new set's bounding sphere;
+    * a preset saved under Python 3.13 is a non-empty file that applies; a bundled preset's removal
+      is refused and the file stays."""
+    names = ["ui_data_tab.png", "ui_render_tab.png", "ui_world_tab.png", "ui_light_tab.png",
+             "ui_fractal_presets.png", "ui_preset_applied.png"]
+    log = run_gui(user_dir, "gui_ui.py", names, timeout=240)
+    steps = {e["step"]: e for e in log if "step" in e}
+    add = steps["add"]
+    assert add["op"] == ["FINISHED"] and add["engine"] == "UNBOUND" and add["is_fractal"], add
+
+    def names_of(step):
+        return {n for n, _ in steps[step]["polled"]}
+    data = names_of("data_tab")
+    assert {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice", "UNBOUND_PT_fractal_quality"} <= data, data
+    assert "UNBOUND_PT_fractal_hint" not in data
+    assert "UNBOUND_PT_fractal" in steps["data_tab"]["drawn"], steps["data_tab"]
+    render = names_of("render_tab")
+    assert {"RENDER_PT_color_management", "RENDER_PT_color_management_curves", "UNBOUND_PT_performance",
+            "UNBOUND_PT_performance_threads"} <= render, render
+    assert {"UNBOUND_PT_performance_threads", "UNBOUND_PT_render"} <= set(steps["render_tab"]["drawn"])
+    assert "UNBOUND_PT_world" in names_of("world_tab") and "UNBOUND_PT_world" in steps["world_tab"]["drawn"]
+    lights = [n for n, label in steps["light_tab"]["polled"] if label == "Light"]
+    assert lights == ["UNBOUND_PT_light"], steps["light_tab"]["polled"]
+    assert "UNBOUND_PT_light" in steps["light_tab"]["drawn"] and "DATA_PT_light" not in steps["light_tab"]["drawn"]
+    assert "CANCELLED" not in steps["popover"]["op"], steps["popover"]
+    applied = steps["preset_applied"]
+    assert steps["apply"]["op"] == ["FINISHED"]
+    assert applied["generation"] > applied["before"] and applied["final"], applied
+    assert applied["request_mu"] == [pytest.approx(applied["mu"])], applied
+    assert applied["size_after"] == pytest.approx(applied["expected_size"]), applied
+    assert applied["size_after"] != pytest.approx(applied["size_before"]), applied
+    saved = steps["save"]
+    assert saved["python"].startswith("3.13"), saved
+    assert saved["op"] == ["FINISHED"] and saved["size"] > 100, saved
+    assert saved["run"] == ["FINISHED"] and saved["mu"] == pytest.approx(saved["saved_mu"]), saved
+    assert saved["remove_bundled"] == ["CANCELLED"] and saved["bundled_kept"], saved
+    for name in names:
+        px = read_png(SHOTS / name)
+        assert px[..., :3].std() > 10, "%s is blank" % name
 
 
 def test_ctrl_c_cancels_a_1080p_render_within_100ms(user_dir):

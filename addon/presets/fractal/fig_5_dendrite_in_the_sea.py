@@ -1,6 +1,5 @@
 import bpy
 ob = bpy.context.object
-scene = bpy.context.scene
 
 ob.unbound.kind = 'QUATERNION_JULIA'
 ob.unbound.slice_offset = 0.0
@@ -19,19 +18,3 @@ ob.unbound.theta = 0.0
 ob.unbound.mu = (0.0, 1.0, 0.0, 0.0)
 ob.unbound.max_iterations = 24
 ob.unbound.color = (0.9, 0.75, 0.55)
-scene.unbound.samples = 4
-scene.unbound.axle_light = 0.8
-scene.unbound.use_scene_lights = True
-scene.unbound.ambient = (0.08, 0.09, 0.12)
-scene.unbound.shadows = 'HARD'
-scene.unbound.ao_strength = 0.6
-scene.unbound.reflection_depth = 2
-scene.unbound.fog_density = 0.0
-scene.unbound.glow_strength = 0.0
-scene.unbound.use_sea = True
-scene.unbound.ao_distance = 0.15
-scene.unbound.sea_height = -0.6
-scene.unbound.sea_wavelength = 0.15
-scene.unbound.sea_amplitude = 0.004
-scene.unbound.sea_color = (0.05, 0.15, 0.3)
-scene.unbound.sea_reflectivity = 0.6

@@ -1,6 +1,5 @@
 import bpy
 ob = bpy.context.object
-scene = bpy.context.scene
 
 ob.unbound.kind = 'JULIA_STACK'
 ob.unbound.slice_offset = 0.0
@@ -22,13 +21,3 @@ ob.unbound.c_end = (0.25, 0.0)
 ob.unbound.stack_height = 2.0
 ob.unbound.max_iterations = 32
 ob.unbound.color = (0.85, 0.62, 0.4)
-scene.unbound.samples = 4
-scene.unbound.axle_light = 1.0
-scene.unbound.use_scene_lights = True
-scene.unbound.ambient = (0.05, 0.05, 0.06)
-scene.unbound.shadows = 'HARD'
-scene.unbound.ao_strength = 0.6
-scene.unbound.reflection_depth = 0
-scene.unbound.fog_density = 0.0
-scene.unbound.glow_strength = 0.0
-scene.unbound.use_sea = False

@@ -1,6 +1,5 @@
 import bpy
 ob = bpy.context.object
-scene = bpy.context.scene
 
 ob.unbound.kind = 'IFS'
 ob.unbound.slice_offset = 0.0
@@ -37,13 +36,3 @@ item_sub_1.location = (0.666666667, 0.0, 0.0)
 item_sub_1.rotation = (0.0, 0.0, 0.0)
 item_sub_1.scale = (0.333333333, 0.333333333, 0.333333333)
 ob.unbound.ifs_active_map = 0
-scene.unbound.samples = 4
-scene.unbound.axle_light = 1.0
-scene.unbound.use_scene_lights = True
-scene.unbound.ambient = (0.05, 0.05, 0.06)
-scene.unbound.shadows = 'HARD'
-scene.unbound.ao_strength = 0.4
-scene.unbound.reflection_depth = 0
-scene.unbound.fog_density = 0.0
-scene.unbound.glow_strength = 0.0
-scene.unbound.use_sea = False

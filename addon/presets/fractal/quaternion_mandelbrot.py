@@ -1,6 +1,5 @@
 import bpy
 ob = bpy.context.object
-scene = bpy.context.scene
 
 ob.unbound.kind = 'QUATERNION_MANDELBROT'
 ob.unbound.slice_offset = 0.0
@@ -18,13 +17,3 @@ ob.unbound.reflectivity = 0.0
 ob.unbound.theta = 0.0
 ob.unbound.max_iterations = 24
 ob.unbound.color = (0.9, 0.75, 0.45)
-scene.unbound.samples = 4
-scene.unbound.axle_light = 1.0
-scene.unbound.use_scene_lights = True
-scene.unbound.ambient = (0.05, 0.05, 0.06)
-scene.unbound.shadows = 'HARD'
-scene.unbound.ao_strength = 0.5
-scene.unbound.reflection_depth = 0
-scene.unbound.fog_density = 0.0
-scene.unbound.glow_strength = 0.0
-scene.unbound.use_sea = False

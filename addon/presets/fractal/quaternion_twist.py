@@ -1,6 +1,5 @@
 import bpy
 ob = bpy.context.object
-scene = bpy.context.scene
 
 ob.unbound.kind = 'QUATERNION_JULIA'
 ob.unbound.slice_offset = 0.0
@@ -19,14 +18,3 @@ ob.unbound.theta = 0.0
 ob.unbound.mu = (-0.2, 0.4, -0.4, -0.4)
 ob.unbound.max_iterations = 16
 ob.unbound.color = (0.8, 0.6, 0.9)
-scene.unbound.samples = 4
-scene.unbound.axle_light = 1.0
-scene.unbound.use_scene_lights = True
-scene.unbound.ambient = (0.05, 0.05, 0.05)
-scene.unbound.shadows = 'HARD'
-scene.unbound.ao_strength = 0.5
-scene.unbound.reflection_depth = 0
-scene.unbound.fog_density = 0.0
-scene.unbound.glow_strength = 0.0
-scene.unbound.use_sea = False
-scene.unbound.ao_distance = 0.2

@@ -47,7 +47,7 @@ def setup():
     log(step="setup", addon_enabled=MODULE in bpy.context.preferences.addons, add_op=sorted(res),
         active=ob.name if ob else None, is_fractal=bool(ob and ob.unbound.is_fractal), engine=scene.render.engine,
         window=[win.width, win.height])
-    show_tab('OBJECT')
+    show_tab('DATA')
 
 
 def make_ifs():
@@ -57,7 +57,7 @@ def make_ifs():
     with bpy.context.temp_override(window=window(), object=ob, active_object=ob):
         res = bpy.ops.object.unbound_ifs_shape(shape='MENGER')
     log(step="ifs", op=sorted(res), maps=len(ob.unbound.ifs_maps))
-    show_tab('OBJECT')
+    show_tab('DATA')
 
 
 def quit_blender():

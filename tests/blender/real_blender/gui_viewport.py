@@ -1,7 +1,7 @@
 """Runs inside the real Blender GUI (under Xvfb, see tools/blender_gui.sh) with the extension
 installed and enabled in the user preferences:
     blender -p 0 0 W H --python gui_viewport.py -- OUTDIR
-From timers: adds a fractal, shows its parameters on the Properties editor's Object tab, switches
+From timers: adds a fractal, shows its parameters on the Properties editor's Object Data tab, switches
 the 3D viewport to Rendered shading with the Unbound engine, and waits for the refinement to end.
 Then, in turn: the same view without overlays (its screenshot is compared with the frame passed
 through Blender's own colour management), a changed mu, the camera view with a render border,
@@ -73,7 +73,7 @@ def setup():
     scene.render.dither_intensity = 0.0  # screenshots compared with Blender's own colour management
     scene.unbound.viewport_start_divisor = '8'
     props = area('PROPERTIES')
-    props.spaces.active.context = 'OBJECT'
+    props.spaces.active.context = 'DATA'
     space = view3d.spaces.active
     rv3d = space.region_3d
     rv3d.view_location = (0.0, 0.0, 0.0)

@@ -1,0 +1,23 @@
+import bpy
+scene = bpy.context.scene
+
+scene.unbound.samples = 4
+scene.unbound.axle_light = 0.8
+scene.unbound.use_scene_lights = True
+scene.unbound.ambient = (0.08, 0.09, 0.12)
+scene.unbound.shadows = 'HARD'
+scene.unbound.ao_strength = 0.6
+scene.unbound.ao_distance = 0.15
+scene.unbound.ao_samples = 5
+scene.unbound.reflection_depth = 2
+scene.unbound.fog_density = 0.0
+scene.unbound.fog_use_world = True
+scene.unbound.fog_color = (0.5, 0.5, 0.5)
+scene.unbound.glow_strength = 0.0
+scene.unbound.glow_color = (0.4, 0.6, 1.0)
+scene.unbound.use_sea = True
+scene.unbound.sea_height = -0.6
+scene.unbound.sea_wavelength = 0.15
+scene.unbound.sea_amplitude = 0.004
+scene.unbound.sea_color = (0.05, 0.15, 0.3)
+scene.unbound.sea_reflectivity = 0.6
