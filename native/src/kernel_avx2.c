@@ -1,11 +1,25 @@
 /* The render kernel for x86-64 CPUs with AVX2 and FMA, chosen at run time (render.c). */
 #if defined(__x86_64__) || defined(_M_X64)
-#if defined(__GNUC__)
+/* The system headers first, untouched by the target attribute below. */
+#include <float.h>
+#include <immintrin.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+/* Every function below is compiled for AVX2 + FMA. Clang (zig cc, Apple clang) ignores
+ * `#pragma GCC target`; it takes the attribute pushed onto each function instead. */
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2,fma"))), apply_to = function)
+#else
 #pragma GCC target("avx2,fma")
 #endif
 #include "simd_avx2.h"
 #define KERNEL_SUFFIX _avx2
 #include "kernel.h"
+#if defined(__clang__)
+#pragma clang attribute pop
+#endif
 #else
 /* Other architectures: the portable kernel is the only one. */
 #include "scene.h"

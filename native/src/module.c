@@ -578,7 +578,7 @@ static int parse_render_options(PyObject *kw, const ub_camera *cam, const ub_sha
     opt->threads = in.threads;
     opt->tile_size = in.tile_size;
     opt->isa = (ub_isa)in.simd;
-    opt->poll_interval_ns = (long)(in.poll_interval * 1e9);
+    opt->poll_interval_ns = (int64_t)(in.poll_interval * 1e9);
     /* Finite is not enough: 1e300 would become an infinite float32 in every missed pixel. */
     if (in.background[3] > 1.0) {
         PyErr_SetString(PyExc_ValueError,
@@ -849,7 +849,7 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    unsigned fp = ub_fp_enter();
+    uint64_t fp = ub_fp_enter();
     if (n > 0)
         (avx2 ? ub_estimate_avx2 : ub_estimate_portable)(&obj, pv.buf, (size_t)n, ev.buf, iv.buf);
     ub_fp_leave(fp);
@@ -888,7 +888,7 @@ static PyObject *py_normals(PyObject *self, PyObject *args, PyObject *kwargs)
         goto out;
     have_n = 1;
     Py_BEGIN_ALLOW_THREADS
-    unsigned fp = ub_fp_enter();
+    uint64_t fp = ub_fp_enter();
     if (n > 0)
         (avx2 ? ub_normals_avx2 : ub_normals_portable)(obj, pv.buf, tv.buf, (size_t)n, nv.buf);
     ub_fp_leave(fp);

@@ -1,23 +1,14 @@
 /* Tiles of the film handed to a pool of threads; the calling thread polls progress/cancel. */
 #include "render.h"
 
+#include "port.h"
+
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-#if defined(__x86_64__) || defined(_M_X64)
-#include <immintrin.h>
-#endif
-#include <pthread.h>
-#include <unistd.h>
 
 int ub_cpu_has_avx2_fma(void)
 {
-#if (defined(__x86_64__) || defined(_M_X64)) && defined(__GNUC__)
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-#else
-    return 0;
-#endif
+    return ub_detect_avx2_fma();
 }
 
 const char *ub_resolve_isa(ub_isa isa, int *use_avx2)
@@ -27,33 +18,20 @@ const char *ub_resolve_isa(ub_isa isa, int *use_avx2)
     return isa == UB_ISA_AVX2 && !has ? "simd='avx2' requested but this CPU lacks AVX2/FMA" : NULL;
 }
 
-unsigned ub_fp_enter(void)
+uint64_t ub_fp_enter(void)
 {
-#if defined(__x86_64__) || defined(_M_X64)
-    /* Same floating-point environment for every kernel call, whatever the caller's: round to
-     * nearest, denormals flushed (FTZ | DAZ), exceptions masked. Part of what makes pixels
-     * independent of the thread that computes them. */
-    unsigned previous = _mm_getcsr();
-    _mm_setcsr(0x1f80 | 0x8040);
-    return previous;
-#else
-    return 0;
-#endif
+    return ub_fp_mode_enter();
 }
 
-void ub_fp_leave(unsigned previous)
+void ub_fp_leave(uint64_t previous)
 {
-#if defined(__x86_64__) || defined(_M_X64)
-    _mm_setcsr(previous);
-#else
-    (void)previous;
-#endif
+    ub_fp_mode_leave(previous);
 }
 
 int ub_cpu_count(void)
 {
-    long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n > 0 ? (int)(n > UB_MAX_THREADS ? UB_MAX_THREADS : n) : 1;
+    int n = ub_online_cpus();
+    return n > UB_MAX_THREADS ? UB_MAX_THREADS : n;
 }
 
 typedef struct {
@@ -65,24 +43,24 @@ typedef struct {
     int next_tile;            /* atomic: next tile to hand out */
     int tiles_done;           /* atomic */
     int workers_running;      /* guarded by lock */
-    pthread_mutex_t lock;
-    pthread_cond_t finished;  /* signalled when a worker exits */
+    ub_mutex lock;
+    ub_cond finished;  /* signalled when a worker exits */
     ub_counters *per_thread;
 } ub_job;
 
 typedef struct {
     ub_job *job;
     int index;
-    pthread_t thread;
+    ub_thread thread;
     int started;
 } ub_worker;
 
-static void *worker_main(void *arg)
+UB_THREAD_ENTRY(worker_main, arg)
 {
     ub_worker *w = arg;
     ub_job *job = w->job;
     /* Restored on exit: with no thread available this runs on the caller's (Blender's) thread. */
-    unsigned fp = ub_fp_enter();
+    uint64_t fp = ub_fp_enter();
     for (;;) {
         if (__atomic_load_n(job->scene->cancel, __ATOMIC_RELAXED))
             break;
@@ -96,18 +74,11 @@ static void *worker_main(void *arg)
         __atomic_fetch_add(&job->tiles_done, 1, __ATOMIC_RELEASE);
     }
     ub_fp_leave(fp);
-    pthread_mutex_lock(&job->lock);
+    ub_mutex_lock(&job->lock);
     job->workers_running--;
-    pthread_cond_signal(&job->finished);
-    pthread_mutex_unlock(&job->lock);
-    return NULL;
-}
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+    ub_cond_signal(&job->finished);
+    ub_mutex_unlock(&job->lock);
+    UB_THREAD_RETURN;
 }
 
 /* Runs one phase of one sample over its region on `threads` workers while the calling thread
@@ -125,25 +96,21 @@ static int run_job(ub_job *job, const ub_render_options *opt, int threads, ub_wo
         threads = job->tile_count;
     if (threads < 1)
         threads = 1;
-    pthread_mutex_init(&job->lock, NULL);
-    pthread_condattr_t cattr;
-    pthread_condattr_init(&cattr);
-    pthread_condattr_setclock(&cattr, CLOCK_MONOTONIC);
-    pthread_cond_init(&job->finished, &cattr);
-    pthread_condattr_destroy(&cattr);
+    ub_mutex_init(&job->lock);
+    ub_cond_init(&job->finished);
     job->workers_running = threads;
     int started = 0;
     for (int i = 0; i < threads; i++) {
         workers[i].job = job;
         workers[i].index = i;
         workers[i].started = 0;
-        if (pthread_create(&workers[i].thread, NULL, worker_main, &workers[i]) == 0) {
+        if (ub_thread_start(&workers[i].thread, worker_main, &workers[i])) {
             workers[i].started = 1;
             started++;
         } else {
-            pthread_mutex_lock(&job->lock);
+            ub_mutex_lock(&job->lock);
             job->workers_running--;
-            pthread_mutex_unlock(&job->lock);
+            ub_mutex_unlock(&job->lock);
         }
     }
     if (!started) {
@@ -152,30 +119,23 @@ static int run_job(ub_job *job, const ub_render_options *opt, int threads, ub_wo
         worker_main(&workers[0]);
     }
     /* Poll: report progress and let the caller cancel, until the workers are done. */
-    pthread_mutex_lock(&job->lock);
+    ub_mutex_lock(&job->lock);
     while (job->workers_running > 0) {
-        struct timespec deadline;
-        clock_gettime(CLOCK_MONOTONIC, &deadline);
-        deadline.tv_nsec += opt->poll_interval_ns;
-        while (deadline.tv_nsec >= 1000000000L) {
-            deadline.tv_nsec -= 1000000000L;
-            deadline.tv_sec++;
-        }
-        pthread_cond_timedwait(&job->finished, &job->lock, &deadline);
+        ub_cond_wait_ns(&job->finished, &job->lock, opt->poll_interval_ns);
         if (job->workers_running > 0 && opt->poll) {
-            pthread_mutex_unlock(&job->lock);
+            ub_mutex_unlock(&job->lock);
             double frac = (double)__atomic_load_n(&job->tiles_done, __ATOMIC_ACQUIRE) / job->tile_count;
             if (opt->poll(opt->poll_data, (job_index + frac) / job_total))
                 __atomic_store_n(job->scene->cancel, 1, __ATOMIC_RELAXED);
-            pthread_mutex_lock(&job->lock);
+            ub_mutex_lock(&job->lock);
         }
     }
-    pthread_mutex_unlock(&job->lock);
+    ub_mutex_unlock(&job->lock);
     for (int i = 0; i < threads; i++)
         if (workers[i].started)
-            pthread_join(workers[i].thread, NULL);
-    pthread_cond_destroy(&job->finished);
-    pthread_mutex_destroy(&job->lock);
+            ub_thread_join(workers[i].thread);
+    ub_cond_destroy(&job->finished);
+    ub_mutex_destroy(&job->lock);
     return started ? started : 1;
 }
 
@@ -212,7 +172,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         free(hb.hits);
         return "out of memory (the image is too large for this machine)";
     }
-    double t0 = now_seconds();
+    double t0 = ub_monotonic_seconds();
     int samples = scene.shading->samples, ran = 1;
     int first = opt->sample_count > 0 ? opt->first_sample : 0;
     int count = opt->sample_count > 0 ? opt->sample_count : samples;
@@ -233,7 +193,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
                 ran = r;
         }
     }
-    stats->seconds = now_seconds() - t0;
+    stats->seconds = ub_monotonic_seconds() - t0;
     for (int i = 0; i < threads; i++) {
         stats->counters.rays += per_thread[i].rays;
         stats->counters.steps += per_thread[i].steps;

@@ -2,6 +2,8 @@
 #define UNBOUND_RENDER_H
 #include "scene.h"
 
+#include <stdint.h>
+
 typedef enum { UB_ISA_AUTO = 0, UB_ISA_AVX2, UB_ISA_PORTABLE } ub_isa;
 
 typedef struct {
@@ -12,7 +14,7 @@ typedef struct {
      * return cancels the render. May be NULL. */
     int (*poll)(void *data, double fraction);
     void *poll_data;
-    long poll_interval_ns;
+    int64_t poll_interval_ns;
     /* Render samples first_sample .. first_sample + sample_count - 1 of the shading's `samples`
      * into buffers that hold the earlier ones (their undivided sum): the viewport accumulates a
      * sample at a time, and the last one divides as a whole render does. sample_count 0: all. */
@@ -32,8 +34,8 @@ int ub_cpu_count(void);
 const char *ub_resolve_isa(ub_isa isa, int *use_avx2);
 /* Enter the kernels' floating-point environment on this thread (round to nearest, denormals
  * flushed, exceptions masked); returns the previous one for ub_fp_leave. */
-unsigned ub_fp_enter(void);
-void ub_fp_leave(unsigned previous);
+uint64_t ub_fp_enter(void);
+void ub_fp_leave(uint64_t previous);
 /* Returns NULL on success or an error message (nothing rendered). */
 const char *ub_render(const ub_scene *scene, const ub_render_options *opt, ub_render_stats *stats);
 #endif
