@@ -10,8 +10,8 @@
  * result is representable, so there is nothing to round) and may stay libm calls.
  *
  * Accuracy (checked against mpmath by tests/native/test_ubmath.py): every double function is
- * within 1 ulp of the true value, in practice below 0.6 ulp; the float ones (ub_expf, ub_fmaf)
- * are correctly rounded or, for ub_expf, within 0.5 + 2^-28 ulp. The method throughout: the
+ * within 1 ulp of the true value, below 0.6 ulp over the ranges the core uses; ub_fmaf is
+ * correctly rounded, ub_expf within 0.5 + 2^-28 ulp. The method throughout: the
  * leading terms in double-double (an unevaluated sum hi + lo, built with error-free transforms),
  * the small tail in plain double, one rounding at the end.
  *
