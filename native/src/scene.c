@@ -2,6 +2,7 @@
 #include "params.h"
 #include "quat.h"
 #include "scene.h"
+#include "ubmath.h" /* acos, cos, sin, hypot: the same bits on every platform */
 
 #include <float.h>
 #include <math.h>
@@ -59,10 +60,10 @@ void ub_sym3_eigen_range(const double a[3][3], double *lmin, double *lmax)
         for (int j = 0; j < 3; j++)
             b[i][j] = (a[i][j] - (i == j ? q : 0.0)) / p;
     double r = ub_det3(b) / 2.0;
-    double phi = r <= -1.0 ? M_PI / 3.0 : (r >= 1.0 ? 0.0 : acos(r) / 3.0);
+    double phi = r <= -1.0 ? M_PI / 3.0 : (r >= 1.0 ? 0.0 : ub_acos(r) / 3.0);
     /* The three roots are q + 2p cos(phi + 2k pi/3); k = 0 gives the largest, k = 1 the smallest. */
-    *lmax = q + 2.0 * p * cos(phi);
-    *lmin = q + 2.0 * p * cos(phi + 2.0 * M_PI / 3.0);
+    *lmax = q + 2.0 * p * ub_cos(phi);
+    *lmin = q + 2.0 * p * ub_cos(phi + 2.0 * M_PI / 3.0);
 }
 
 /* Smallest and largest singular value of a 3x3 matrix by one-sided Jacobi (Hestenes) in double:
@@ -147,8 +148,8 @@ static const char *prepare_kind(ub_object *obj)
         double c_max = 0.0;
         int last = obj->path_count - 1;
         for (int i = 0; i < obj->path_count; i++) {
-            c_max = fmax(c_max, hypot(obj->path[i][0], obj->path[i][1]));
-            obj->path_speed[i] = i < last ? hypot(obj->path[i + 1][0] - obj->path[i][0],
+            c_max = fmax(c_max, ub_hypot(obj->path[i][0], obj->path[i][1]));
+            obj->path_speed[i] = i < last ? ub_hypot(obj->path[i + 1][0] - obj->path[i][0],
                                                   obj->path[i + 1][1] - obj->path[i][1]) * last / obj->stack_height
                                           : 0.0;
         }
@@ -217,8 +218,8 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
      * g(K_mu) and its distance estimate at z is the plain one at g^-1(z). We therefore fold
      * g^-1 (left multiplication by e^{-i theta}) into the slice map once, and the kernels
      * iterate plain z^2 + mu. theta is reduced modulo 2 pi so that 2 pi gives 0's exact bits. */
-    double th = fmod(theta, 2.0 * M_PI);
-    double g_inv[4] = {cos(th), -sin(th), 0.0, 0.0};
+    double th = fmod(theta, 2.0 * M_PI); /* exact (C's fmod has no rounding) */
+    double g_inv[4] = {ub_cos(th), -ub_sin(th), 0.0, 0.0};
     if (th == 0.0) { g_inv[0] = 1.0; g_inv[1] = 0.0; }
     ub_quat_mul(g_inv, slice_origin, obj->slice_origin);
     for (int c = 0; c < 3; c++) {
@@ -328,7 +329,7 @@ const char *ub_light_from_input(ub_light *L, const ub_light_input *in)
         L->direction[i] = dir[i] / len;
     /* Blender's spot: spot_size is the full cone angle, spot_blend the fraction of the cone's
      * cosine range over which it fades in. */
-    L->spot_cos_outer = cos(in->spot_size / 2);
+    L->spot_cos_outer = ub_cos(in->spot_size / 2);
     L->spot_cos_inner = L->spot_cos_outer + (1.0 - L->spot_cos_outer) * in->spot_blend;
     return NULL;
 }
