@@ -29,11 +29,14 @@ def kind_parameters_are_keyframeable(S, mod):
         set_value(b)
         ob.keyframe_insert("unbound." + path, index=index, frame=3)
         scene.view_layers[0].unbound.use_pass_depth = True
-        depth = []
+        depth, exported = [], []
         for f in (1, 3, 1):
             scene.frame_set(f)
             depth.append(S.render_to_exr(scene, "k%d.exr" % f)["ViewLayer.Depth.Z"])
-        changes[kind + "." + path] = [float(np.mean(depth[0] != depth[1])), bool(np.array_equal(depth[0], depth[2]))]
+            value = mod.export.object_parameters(ob)[path]
+            exported.append(float(value if index < 0 else value[index]))
+        changes[kind + "." + path] = [float(np.mean(depth[0] != depth[1])), bool(np.array_equal(depth[0], depth[2])),
+                                      exported]
     S.report(changes=changes)
 
 
