@@ -122,7 +122,8 @@ OBJECT_KEYS = ("kind", "mu", "theta", "max_iterations", "bailout", "threshold_mo
                "step_factor", "max_step", "max_steps", "bisection_steps", "color", "normal_method", "normal_alpha",
                "normal_delta", "reflectivity", "color_mode", "ramp_scale", "ramp_offset")
 KIND_KEYS = {'JULIA_STACK': ("stack_height",), 'CUBIC_LOCUS': ("cubic_component", "extent"),
-             'IFS': ("ifs_depth",)}
+             'IFS': ("ifs_depth",), 'MANDELBULB': ("power", "julia_mode", "julia_c"),
+             'MANDELBOX': ("box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c")}
 
 # The most points of a c-path and of a colour ramp the core takes (its PARAMETERS).
 PATH_POINTS = 256

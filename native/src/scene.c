@@ -131,10 +131,86 @@ static void slice_ball(ub_object *obj, double radius4)
     obj->bound_radius = r2 >= 0.0 ? sqrt(r2) : -1.0;
 }
 
+/* x^m for a whole number m >= 0, by multiplications only (no libm: bounds reach pixels). */
+static double int_power(double x, int m)
+{
+    double r = 1.0;
+    for (int i = 0; i < m; i++)
+        r *= x;
+    return r;
+}
+
+/* The Mandelbulb's ball and escape radius. |z^n| = |z|^n in the triplex algebra, and with
+ * m = floor(n) >= 2, |z|^n >= |z|^m for |z| >= 1. Mandelbrot mode: with R^(m-1) >= 2 and
+ * |c| <= R, |z| > R gives |f(z)| >= |z|^n - |c| > |z| (|z|^(n-1) - 1) > |z|, growing: the orbit
+ * escapes, so the set lies in |c| <= R (z0 = c) and R is an escape radius. Julia mode: R >= 1
+ * the root of R^m - R - |c| = 0; |z| > R gives |f(z)| - |z| >= |z|^m - |z| - |c| > 0, growing.
+ * Bisection in double, taking the upper end. The escape radius used is also capped at
+ * 2^floor(56/n), so that r^n stays far inside float32's range (never below R). */
+static void mandelbulb_bound(ub_object *obj)
+{
+    int m = (int)floor(obj->power);
+    double c = obj->julia_mode ? sqrt(obj->julia_c[0] * obj->julia_c[0] + obj->julia_c[1] * obj->julia_c[1]
+                                      + obj->julia_c[2] * obj->julia_c[2])
+                               : 0.0;
+    double lo = 1.0, hi = 2.0 + c;
+    for (int i = 0; i < 200; i++) {
+        double mid = 0.5 * (lo + hi);
+        double g = obj->julia_mode ? int_power(mid, m) - mid - c : int_power(mid, m - 1) - 2.0;
+        if (g < 0.0)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+    obj->bound_radius = hi;
+    double cap = ldexp(1.0, (int)floor(56.0 / obj->power));
+    obj->bailout = fmax(fmin(obj->bailout, cap), hi);
+}
+
+/* The Mandelbox's ball and escape radius, from the sup norm. The box fold moves a coordinate
+ * by at most 2L toward 0 (|fold(x)| >= |x| - 2L) and the sphere fold only scales up (by
+ * k >= 1, as min_radius <= fixed_radius), so the largest coordinate m of z gives
+ * |f(z)|_inf >= |s| (m - 2L) - |c|_inf. Beyond m* = (2L|s| + |c|_inf) / (|s| - 1) that is
+ * > m and f(z) - m* >= |s| (m - m*): the orbit escapes. Julia mode: the set lies in the cube
+ * of half-width m* (proven). Mandelbrot mode (z0 = c): for |s| > 2, |c|_inf > 2L|s|/(|s| - 2)
+ * already exceeds m*(c), so H = 2L|s|/(|s| - 2) (proven); for 1 < |s| <= 2 no such argument
+ * holds and H = 2L(|s| + 1)/(|s| - 1), Lowe's cube for s > 1 (6 for s = 2), taken for s < -1
+ * as well: not proven here, checked by sampling (tests/native/test_formulas.py). The escape
+ * radius is sqrt(3) m* for the largest |c| the cube allows; the ball is the cube's. */
+static const char *mandelbox_bound(ub_object *obj)
+{
+    double s = fabs(obj->box_scale), L = obj->box_fold;
+    if (!(s > 1.0 + 1e-6))
+        return "a Mandelbox needs |box_scale| > 1";
+    if (obj->min_radius > obj->fixed_radius)
+        return "a Mandelbox needs min_radius <= fixed_radius";
+    double H, c;
+    if (obj->julia_mode) {
+        c = fmax(fabs(obj->julia_c[0]), fmax(fabs(obj->julia_c[1]), fabs(obj->julia_c[2])));
+        H = (2.0 * L * s + c) / (s - 1.0);
+    } else {
+        H = s > 2.0 ? 2.0 * L * s / (s - 2.0) : 2.0 * L * (s + 1.0) / (s - 1.0);
+        c = H;
+    }
+    double escape = fmax(H, (2.0 * L * s + c) / (s - 1.0));
+    obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+    obj->bound_radius = sqrt(3.0) * H;
+    obj->bailout = fmax(obj->bailout, sqrt(3.0) * escape);
+    return NULL;
+}
+
 /* The kind's bounding ball (section 3.4), escape radius and exactness. */
 static const char *prepare_kind(ub_object *obj)
 {
     switch (obj->kind) {
+    case UB_KIND_MANDELBULB:
+        mandelbulb_bound(obj);
+        obj->exact = 0;
+        return NULL;
+    case UB_KIND_MANDELBOX:
+        obj->exact = 0;
+        return mandelbox_bound(obj);
     case UB_KIND_QUATERNION_MANDELBROT:
         /* |mu| > 2 escapes, and once |z| > 2 >= |mu| the orbit escapes. */
         slice_ball(obj, 2.0);
@@ -195,7 +271,8 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
 {
     static const double identity_basis[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
     static const double zero_origin[4] = {0, 0, 0, 0};
-    if (obj->kind == UB_KIND_JULIA_STACK || obj->kind == UB_KIND_IFS) {
+    if (obj->kind == UB_KIND_JULIA_STACK || obj->kind == UB_KIND_IFS || obj->kind == UB_KIND_MANDELBULB
+        || obj->kind == UB_KIND_MANDELBOX) {
         /* Three-dimensional kinds: the "slice" is object space itself. */
         slice_basis = identity_basis;
         slice_origin = zero_origin;
@@ -309,6 +386,13 @@ const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
     obj->map_count = in->maps_count;
     memcpy(obj->maps, in->maps, sizeof obj->maps);
     obj->ifs_depth = in->ifs_depth;
+    obj->julia_mode = in->julia_mode;
+    memcpy(obj->julia_c, in->julia_c, sizeof obj->julia_c);
+    obj->power = in->power;
+    obj->box_scale = in->box_scale;
+    obj->box_fold = in->box_fold;
+    obj->min_radius = in->min_radius;
+    obj->fixed_radius = in->fixed_radius;
     return ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
 }
 
