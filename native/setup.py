@@ -11,7 +11,7 @@ if sys.platform == "win32":
     # render.c uses pthreads and clock_gettime, the kernels GCC/Clang's __atomic builtins.
     sys.exit("unbound_core builds with GCC or Clang on POSIX systems only (Linux, macOS)")
 
-sources = ["camera.c", "scene.c", "ifs.c", "kernel_avx2.c", "kernel_portable.c", "render.c", "params.c", "module.c", "mesh.c"]
+sources = ["camera.c", "scene.c", "ifs.c", "kernel_avx2.c", "kernel_portable.c", "render.c", "params.c", "module.c", "mesh.c", "mesh_avx2.c", "mesh_portable.c"]
 compile_args = ["-O3", "-std=c11", "-D_GNU_SOURCE", "-ffp-contract=off", "-fno-math-errno",
                 "-fvisibility=hidden", "-Wall", "-Wno-unused-function"]
 libraries = ["m", "pthread"]

@@ -38,9 +38,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The portable kernel's estimator, for the orbit trap at the vertices (bit-identical to AVX2). */
-#include "simd_portable.h"
-#include "estimators.h"
 
 #define KEY_BITS 20
 #define KEY_MASK ((1ull << KEY_BITS) - 1)
@@ -608,15 +605,105 @@ typedef struct {
     uint32_t pad;
 } edge_rec;
 
-static int triangulate(mctx *c, const vec *cells, vec *edges, vec *faces)
+/* ---------------------------------------------------------------- 4. projection by bisection */
+
+#define BISECTIONS 14
+
+typedef struct {
+    const edge_rec *edges;
+    float *vertices;
+} bisect_job;
+
+static void bisect_range(mctx *c, void *arg, size_t lo, size_t hi)
 {
-    hmap emap;
-    if (hmap_init(c, &emap, 1 << 16))
+    bisect_job *bj = arg;
+    enum { B = 128 };
+    double in_p[B][3], out_p[B][3], mid[B * 3];
+    uint8_t flag[B];
+    for (size_t base = lo; base < hi; base += B) {
+        size_t n = hi - base < B ? hi - base : B;
+        for (size_t i = 0; i < n; i++) {
+            const edge_rec *e = &bj->edges[base + i];
+            double p[3], q[3];
+            lattice_point(c, e->key >> 3, p);
+            int dir = (int)(e->key & 7);
+            for (int a = 0; a < 3; a++)
+                q[a] = p[a] + (((dir >> a) & 1) ? c->h : 0.0);
+            for (int a = 0; a < 3; a++) {
+                in_p[i][a] = e->lower_inside ? p[a] : q[a];
+                out_p[i][a] = e->lower_inside ? q[a] : p[a];
+            }
+        }
+        for (int it = 0; it < BISECTIONS; it++) {
+            for (size_t i = 0; i < n; i++)
+                for (int a = 0; a < 3; a++)
+                    mid[3 * i + a] = 0.5 * (in_p[i][a] + out_p[i][a]);
+            classify(c, mid, n, flag, NULL);
+            for (size_t i = 0; i < n; i++)
+                for (int a = 0; a < 3; a++) {
+                    if (flag[i])
+                        in_p[i][a] = mid[3 * i + a];
+                    else
+                        out_p[i][a] = mid[3 * i + a];
+                }
+        }
+        for (size_t i = 0; i < n; i++)
+            for (int a = 0; a < 3; a++)
+                bj->vertices[3 * (base + i) + a] = (float)out_p[i][a];
+    }
+}
+
+/* Projects the pending edges into vertices base.. (parallel), then forgets them. */
+static int flush_edges(mctx *c, vec *pend, size_t *base, vec *verts, double done)
+{
+    if (vec_reserve(c, verts, 3 * (*base + pend->n)))
         return -1;
+    bisect_job bj = {(const edge_rec *)pend->data, (float *)verts->data + 3 * *base};
+    c->progress_lo = c->progress_hi;
+    c->progress_hi = 0.62 + 0.33 * done;
+    parallel_for(c, pend->n, 1024, bisect_range, &bj);
+    *base += pend->n;
+    verts->n = 3 * *base;
+    pend->n = 0;
+    return 0;
+}
+
+static void hmap_clear(hmap *m)
+{
+    memset(m->keys, 0xff, m->cap * sizeof(uint64_t));
+    m->count = 0;
+}
+
+static int flush_edges(mctx *c, vec *pend, size_t *base, vec *verts, double done);
+
+/* Cells sorted by (k, j, i): an edge whose lower end lies on layer z is used only by cells of
+ * layers z - 1 and z, so two layer maps (edge -> vertex) suffice, and the edges found are
+ * projected in batches as they come: memory follows one layer of the surface, not all of it. */
+static int triangulate(mctx *c, const vec *cells, vec *verts, vec *faces)
+{
+    hmap maps[2];
+    if (hmap_init(c, &maps[0], 1 << 12) || hmap_init(c, &maps[1], 1 << 12))
+        return -1;
+    vec pend = VEC(edge_rec), *edges = &pend;
+    size_t base = 0; /* vertex number of pend[0] */
+    int64_t layer = -2;
+    int cur = 0;
     static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
     int rc = -1;
     for (size_t ci = 0; ci < cells->n; ci++) {
         const cell_rec *cr = &AT(*cells, cell_rec, ci);
+        int64_t k = (int64_t)(cr->key >> (2 * KEY_BITS));
+        if (k != layer) {
+            hmap_clear(&maps[cur]);
+            cur ^= 1;
+            if (k != layer + 1)
+                hmap_clear(&maps[cur]);
+            layer = k;
+            if (pend.n >= (1u << 18) && flush_edges(c, &pend, &base, verts, (double)ci / (double)cells->n))
+                goto out;
+            if (c->cancel)
+                goto out;
+        }
         for (int t = 0; t < 6; t++) {
             int v[4] = {0, 1 << perms[t][0], (1 << perms[t][0]) | (1 << perms[t][1]), 7};
             int ins[4], nin = 0;
@@ -685,7 +772,8 @@ static int triangulate(mctx *c, const vec *cells, vec *edges, vec *faces)
                 }
                 uint64_t key = ((cr->key + CORNER_OFFSET[lo]) << 3) | (uint64_t)(lo ^ hi);
                 uint32_t *slot;
-                int r = hmap_put(c, &emap, key, (uint32_t)edges->n, &slot);
+                hmap *emap = &maps[(lo >> 2) ? cur ^ 1 : cur];
+                int r = hmap_put(c, emap, key, (uint32_t)(base + edges->n), &slot);
                 if (r < 0)
                     goto out;
                 if (r == 1) {
@@ -716,58 +804,12 @@ static int triangulate(mctx *c, const vec *cells, vec *edges, vec *faces)
             }
         }
     }
-    rc = 0;
+    rc = flush_edges(c, &pend, &base, verts, 1.0);
 out:
-    hmap_free(c, &emap);
+    hmap_free(c, &maps[0]);
+    hmap_free(c, &maps[1]);
+    vec_free(c, &pend);
     return rc;
-}
-
-/* ---------------------------------------------------------------- 4. projection by bisection */
-
-#define BISECTIONS 14
-
-typedef struct {
-    const edge_rec *edges;
-    float *vertices;
-} bisect_job;
-
-static void bisect_range(mctx *c, void *arg, size_t lo, size_t hi)
-{
-    bisect_job *bj = arg;
-    enum { B = 128 };
-    double in_p[B][3], out_p[B][3], mid[B * 3];
-    uint8_t flag[B];
-    for (size_t base = lo; base < hi; base += B) {
-        size_t n = hi - base < B ? hi - base : B;
-        for (size_t i = 0; i < n; i++) {
-            const edge_rec *e = &bj->edges[base + i];
-            double p[3], q[3];
-            lattice_point(c, e->key >> 3, p);
-            int dir = (int)(e->key & 7);
-            for (int a = 0; a < 3; a++)
-                q[a] = p[a] + (((dir >> a) & 1) ? c->h : 0.0);
-            for (int a = 0; a < 3; a++) {
-                in_p[i][a] = e->lower_inside ? p[a] : q[a];
-                out_p[i][a] = e->lower_inside ? q[a] : p[a];
-            }
-        }
-        for (int it = 0; it < BISECTIONS; it++) {
-            for (size_t i = 0; i < n; i++)
-                for (int a = 0; a < 3; a++)
-                    mid[3 * i + a] = 0.5 * (in_p[i][a] + out_p[i][a]);
-            classify(c, mid, n, flag, NULL);
-            for (size_t i = 0; i < n; i++)
-                for (int a = 0; a < 3; a++) {
-                    if (flag[i])
-                        in_p[i][a] = mid[3 * i + a];
-                    else
-                        out_p[i][a] = mid[3 * i + a];
-                }
-        }
-        for (size_t i = 0; i < n; i++)
-            for (int a = 0; a < 3; a++)
-                bj->vertices[3 * (base + i) + a] = (float)out_p[i][a];
-    }
 }
 
 /* ---------------------------------------------------------------- 5. attributes */
@@ -780,32 +822,8 @@ typedef struct {
 static void attr_range(mctx *c, void *arg, size_t lo, size_t hi)
 {
     attr_job *aj = arg;
-    ub_de_params dp;
-    de_params(c->o, NULL, &dp);
-    for (size_t base = lo; base < hi; base += UB_LANES) {
-        size_t n = hi - base < UB_LANES ? hi - base : UB_LANES;
-        float q[4][UB_LANES];
-        for (size_t l = 0; l < UB_LANES; l++) {
-            const float *p = aj->vertices + 3 * (base + (l < n ? l : n - 1));
-            double pd[3] = {p[0], p[1], p[2]};
-            float ql[4];
-            to_quaternion(c->o, pd, ql);
-            for (int k = 0; k < 4; k++)
-                q[k][l] = ql[k];
-        }
-        vf dist, it;
-        ub_de_extra x;
-        de_ext(&dp, v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), UB_WANT_TRAP, &dist, &it, &x);
-        float db[UB_LANES], ib[UB_LANES], tb[UB_LANES];
-        v_store(db, dist);
-        v_store(ib, it);
-        v_store(tb, x.trap);
-        for (size_t l = 0; l < n; l++) {
-            aj->estimate[base + l] = db[l];
-            aj->iterations[base + l] = ib[l];
-            aj->trap[base + l] = tb[l];
-        }
-    }
+    (c->use_avx2 ? ub_mesh_attributes_avx2 : ub_mesh_attributes_portable)(
+        c->o, aj->vertices + 3 * lo, hi - lo, aj->estimate + lo, aj->iterations + lo, aj->trap + lo);
 }
 
 /* ---------------------------------------------------------------- crumbs */
@@ -945,9 +963,9 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     uint64_t fp = ub_fp_enter();
 
     const char *err = NULL;
-    vec seeds = VEC(uint64_t), cells = VEC(cell_rec), edges = VEC(edge_rec), faces = VEC(int32_t);
+    vec seeds = VEC(uint64_t), cells = VEC(cell_rec), faces = VEC(int32_t), vv = VEC(float);
     float *verts = NULL;
-    size_t nv = 0, verts_bytes = 0;
+    size_t nv = 0;
 
     /* 1. seeds */
     int spacing = opt->seed_spacing > 0 ? opt->seed_spacing : 4;
@@ -977,6 +995,7 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     if (c.failed)
         goto oom;
     out->seeds = (int64_t)seeds.n;
+    out->phase_seconds[0] = ub_monotonic_seconds() - t0;
     if (c.cancel)
         goto cancelled;
 
@@ -987,53 +1006,45 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     if (c.cancel)
         goto cancelled;
     out->active_cells = (int64_t)cells.n;
+    out->phase_seconds[1] = ub_monotonic_seconds() - t0;
     if (sort_cells(&c, &cells))
         goto oom;
     poll_now(&c, 0.62);
 
-    /* 3. triangles */
-    if (triangulate(&c, &cells, &edges, &faces))
+    /* 3-4. triangles, projection */
+    c.progress_hi = 0.62;
+    if (triangulate(&c, &cells, &vv, &faces))
         goto oom;
     vec_free(&c, &cells);
-    if (edges.n >= (size_t)INT32_MAX) {
+    out->phase_seconds[2] = out->phase_seconds[3] = ub_monotonic_seconds() - t0;
+    if (c.cancel)
+        goto cancelled;
+    if (vv.n / 3 >= (size_t)INT32_MAX) {
         err = "the mesh has too many vertices: lower the resolution";
         goto done;
     }
-    poll_now(&c, 0.68);
-    if (c.cancel)
-        goto cancelled;
-
-    /* 4. projection */
-    nv = edges.n;
-    verts_bytes = 3 * nv * sizeof(float);
-    verts = m_realloc(&c, NULL, 0, verts_bytes);
-    if (!verts)
-        goto oom;
-    bisect_job bj = {(const edge_rec *)edges.data, verts};
-    c.progress_lo = 0.68;
-    c.progress_hi = 0.95;
-    parallel_for(&c, nv, 1024, bisect_range, &bj);
-    vec_free(&c, &edges);
-    if (c.cancel)
-        goto cancelled;
+    nv = vv.n / 3;
+    verts = (float *)vv.data;
 
     /* 5. crumbs, attributes */
     if (remove_crumbs(&c, &faces, &verts, &nv, opt->min_faces, &out->pieces, &out->pieces_removed))
         goto oom;
     out->vertex_count = (int64_t)nv;
     out->face_count = (int64_t)(faces.n / 3);
-    out->vertices = malloc(3 * nv * sizeof(float) + 1);
-    out->faces = malloc(faces.n * sizeof(int32_t) + 1);
+    /* The buffers become the result's (the caller frees them with ub_mesh_free). */
+    out->vertices = verts;
+    out->faces = (int32_t *)faces.data;
+    vv.data = faces.data = NULL;
+    vv.n = vv.cap = faces.n = faces.cap = 0;
     out->trap = malloc(nv * sizeof(float) + 1);
     out->iterations = malloc(nv * sizeof(float) + 1);
     out->estimate = malloc(nv * sizeof(float) + 1);
-    if (!out->vertices || !out->faces || !out->trap || !out->iterations || !out->estimate)
+    if (!out->trap || !out->iterations || !out->estimate)
         goto oom;
-    c.bytes += (3 * nv + faces.n + 3 * nv) * 4;
+    c.bytes += 3 * nv * sizeof(float);
     if (c.bytes > c.peak)
         c.peak = c.bytes;
-    memcpy(out->vertices, verts, 3 * nv * sizeof(float));
-    memcpy(out->faces, faces.data, faces.n * sizeof(int32_t));
+    out->phase_seconds[4] = ub_monotonic_seconds() - t0;
     attr_job aj = {out->vertices, out->trap, out->iterations, out->estimate};
     c.progress_lo = 0.95;
     c.progress_hi = 1.0;
@@ -1050,10 +1061,8 @@ cancelled:
 done:
     vec_free(&c, &seeds);
     vec_free(&c, &cells);
-    vec_free(&c, &edges);
     vec_free(&c, &faces);
-    if (verts)
-        m_free(&c, verts, verts_bytes);
+    vec_free(&c, &vv);
     if (err || out->cancelled) {
         ub_mesh_free(out);
         out->vertex_count = out->face_count = 0;

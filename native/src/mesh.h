@@ -27,9 +27,13 @@ typedef struct {
     /* statistics */
     int64_t cells, active_cells, evaluations, seeds, pieces, pieces_removed;
     double epsilon, cell_size, seconds;
+    double phase_seconds[5]; /* since the start, at the end of: seeds, tracking, triangles, projection, crumbs */
     size_t peak_bytes;
     int threads, cancelled;
 } ub_mesh_result;
+
+void ub_mesh_attributes_avx2(const ub_object *, const float *, size_t, float *, float *, float *);
+void ub_mesh_attributes_portable(const ub_object *, const float *, size_t, float *, float *, float *);
 
 /* Returns NULL (result filled; free with ub_mesh_free) or an error message. */
 const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_mesh_result *out);

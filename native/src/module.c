@@ -996,14 +996,30 @@ static PyObject *py_extract_mesh(PyObject *self, PyObject *args, PyObject *kwarg
         return NULL;
     }
     size_t nv = (size_t)r.vertex_count, nf = (size_t)r.face_count;
+    /* Each array becomes bytes and is freed at once: the peak holds one copy of one array. */
+    PyObject *arrays[5] = {NULL};
+    void **bufs[5] = {(void **)&r.vertices, (void **)&r.faces, (void **)&r.trap, (void **)&r.iterations,
+                      (void **)&r.estimate};
+    const size_t sizes[5] = {12 * nv, 12 * nf, 4 * nv, 4 * nv, 4 * nv};
+    for (int i = 0; i < 5; i++) {
+        arrays[i] = bytes_of(*bufs[i], sizes[i]);
+        free(*bufs[i]);
+        *bufs[i] = NULL;
+        if (!arrays[i]) {
+            for (int k = 0; k < i; k++)
+                Py_DECREF(arrays[k]);
+            ub_mesh_free(&r);
+            return NULL;
+        }
+    }
     result = Py_BuildValue(
-        "{s:N,s:N,s:N,s:N,s:N,s:L,s:L,s:L,s:L,s:L,s:L,s:L,s:L,s:d,s:d,s:d,s:K,s:i,s:O}", "vertices",
-        bytes_of(r.vertices, 12 * nv), "faces", bytes_of(r.faces, 12 * nf), "trap", bytes_of(r.trap, 4 * nv),
-        "iterations", bytes_of(r.iterations, 4 * nv), "estimate", bytes_of(r.estimate, 4 * nv), "vertex_count",
+        "{s:N,s:N,s:N,s:N,s:N,s:L,s:L,s:L,s:L,s:L,s:L,s:L,s:L,s:d,s:d,s:d,s:(ddddd),s:K,s:i,s:O}", "vertices",
+        arrays[0], "faces", arrays[1], "trap", arrays[2], "iterations", arrays[3], "estimate", arrays[4],
+        "vertex_count",
         (long long)r.vertex_count, "face_count", (long long)r.face_count, "cells", (long long)r.cells,
         "active_cells", (long long)r.active_cells, "evaluations", (long long)r.evaluations, "seeds",
         (long long)r.seeds, "pieces", (long long)r.pieces, "pieces_removed", (long long)r.pieces_removed, "epsilon",
-        r.epsilon, "cell_size", r.cell_size, "seconds", r.seconds, "peak_bytes", (unsigned long long)r.peak_bytes,
+        r.epsilon, "cell_size", r.cell_size, "seconds", r.seconds, "phase_seconds", r.phase_seconds[0], r.phase_seconds[1], r.phase_seconds[2], r.phase_seconds[3], r.phase_seconds[4], "peak_bytes", (unsigned long long)r.peak_bytes,
         "threads", r.threads, "cancelled", r.cancelled ? Py_True : Py_False);
     ub_mesh_free(&r);
     return result;
