@@ -1,0 +1,147 @@
+"""Convert to Mesh in the core (extract_mesh, native/src/mesh.c): the exact unit ball, every kind,
+the default Julia set against the float64 reference, determinism over thread counts, crumbs,
+progress and cancel."""
+import threading
+
+import numpy as np
+import pytest
+from conftest import KIND_OBJECTS, uc
+
+from reference import qjulia64
+
+BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32)
+
+
+def topology(mesh):
+    """Closedness and manifoldness of a triangle mesh: every undirected edge in exactly two faces,
+    every directed edge once (consistently oriented), Euler characteristic, pieces (by shared
+    vertices), and the enclosed (signed) volume."""
+    v, f = mesh.vertices.astype(np.float64), mesh.faces.astype(np.int64)
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    dkey = directed[:, 0] * (1 << 32) + directed[:, 1]
+    und = np.sort(directed, axis=1)
+    ukey, counts = np.unique(und[:, 0] * (1 << 32) + und[:, 1], return_counts=True)
+    # pieces: union-find over the faces' vertices
+    parent = np.arange(len(v))
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+    edges = np.unique(und, axis=0)
+    # vectorised label propagation (min label over edges until stable)
+    label = np.arange(len(v))
+    while True:
+        lo = np.minimum(label[edges[:, 0]], label[edges[:, 1]])
+        new = label.copy()
+        np.minimum.at(new, edges[:, 0], lo)
+        np.minimum.at(new, edges[:, 1], lo)
+        new = new[new]
+        if np.array_equal(new, label):
+            break
+        label = new
+    used = np.unique(f)
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    volume = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0
+    return dict(edges_in_two_faces=bool((counts == 2).all()), oriented=len(np.unique(dkey)) == len(dkey),
+                euler=len(v) - len(ukey) + len(f), pieces=len(np.unique(label[used])),
+                all_vertices_used=len(used) == len(v), volume=volume)
+
+
+def test_unit_ball_256_is_a_closed_manifold_sphere_on_the_unit_sphere():
+    """mu = 0 is exactly the unit ball: at resolution 256 every vertex lies within 1e-3 of radius 1
+    (measured 2.5e-4: the surface is estimate = cell / 64, |z| log|z| / 2 = epsilon), each edge
+    is in exactly two faces, consistently oriented, Euler characteristic 2, one piece, and the
+    enclosed volume is 4 pi / 3 within 0.5% (outward orientation)."""
+    m = uc.mesh.extract(BALL, resolution=256)
+    r = np.linalg.norm(m.vertices.astype(np.float64), axis=1)
+    assert len(r) > 100000
+    assert np.abs(r - 1.0).max() < 1e-3
+    t = topology(m)
+    assert t["edges_in_two_faces"] and t["oriented"] and t["all_vertices_used"], t
+    assert t["euler"] == 2 and t["pieces"] == 1, t
+    assert t["volume"] == pytest.approx(4.0 * np.pi / 3.0, rel=5e-3)
+    assert m.stats["pieces"] == 1 and not m.stats["cancelled"]
+    assert np.all(m.estimate >= m.stats["epsilon"])  # vertices: the bracket's outside end
+    assert np.all(m.iterations >= 1) and np.all(np.isfinite(m.trap))
+
+
+@pytest.mark.parametrize("kind", sorted(KIND_OBJECTS))
+def test_every_kind_gives_a_closed_oriented_manifold(kind):
+    obj = KIND_OBJECTS[kind]
+    m = uc.mesh.extract(obj, resolution=48)
+    assert m.stats["face_count"] > 100, (kind, m.stats)
+    t = topology(m)
+    assert t["edges_in_two_faces"] and t["oriented"] and t["all_vertices_used"], (kind, t)
+    assert t["volume"] > 0, (kind, t)
+    # every closed orientable piece has an even Euler characteristic
+    assert t["euler"] % 2 == 0, (kind, t)
+    assert np.isfinite(m.vertices).all() and np.isfinite(m.trap).all()
+    d = uc.describe(obj)
+    rel = m.vertices.astype(np.float64) - np.array(d["bound_center"])
+    assert np.linalg.norm(rel, axis=1).max() <= d["bound_radius"] * (1 + 1e-6) + m.stats["cell_size"]
+
+
+def test_same_bytes_for_any_thread_count():
+    obj = KIND_OBJECTS["quaternion_julia"]
+    runs = [uc.extract_mesh(obj, resolution=96, threads=t) for t in (1, 2, 7)]
+    for key in ("vertices", "faces", "trap", "iterations", "estimate"):
+        assert runs[0][key] == runs[1][key] == runs[2][key], key
+    # and the portable kernel gives the AVX2 kernel's bytes where there is one
+    if uc.cpu_info()["avx2_fma"]:
+        portable = uc.extract_mesh(obj, resolution=96, simd="portable")
+        assert all(portable[k] == runs[0][k] for k in ("vertices", "faces", "trap", "iterations"))
+
+
+def test_default_julia_1024_on_the_float64_surface_and_watertight():
+    """The default Julia set (mu = (-0.2, 0.8, 0, 0), 16 iterations) at 1024 cells across: closed
+    and oriented manifold; every vertex within epsilon of the surface {estimate = epsilon} by the
+    float64 reference estimate (|d64 - epsilon| <= epsilon) on a sample of 200 000 vertices."""
+    m = uc.mesh.extract({}, resolution=1024)
+    eps = m.stats["epsilon"]
+    t = topology(m)
+    assert t["edges_in_two_faces"] and t["oriented"] and t["volume"] > 0, t
+    rng = np.random.default_rng(1)
+    idx = rng.choice(len(m.vertices), size=min(200000, len(m.vertices)), replace=False)
+    d64, _ = qjulia64.distance_estimate(qjulia64.slice_points(m.vertices[idx]), (-0.2, 0.8, 0.0, 0.0), 16, 4.0)
+    err = np.abs(d64 - eps)
+    assert np.quantile(err, 0.999) <= eps, (np.quantile(err, [0.5, 0.99, 0.999, 1.0]), eps)
+    assert err.max() <= 4 * eps, (err.max(), eps)
+
+
+def test_crumbs_are_removed_below_min_faces():
+    obj = KIND_OBJECTS["quaternion_julia"]
+    all_pieces = uc.mesh.extract(obj, resolution=128)
+    assert all_pieces.stats["pieces"] > 1
+    kept = uc.mesh.extract(obj, resolution=128, min_faces=1000)
+    assert kept.stats["pieces_removed"] > 0
+    t = topology(kept)
+    assert t["pieces"] == kept.stats["pieces"] - kept.stats["pieces_removed"], t
+    assert t["edges_in_two_faces"] and t["all_vertices_used"], t
+    assert len(kept.faces) < len(all_pieces.faces)
+
+
+def test_progress_and_cancel():
+    fractions = []
+    m = uc.mesh.extract({}, resolution=192, progress=lambda f: fractions.append(f) and False, poll_interval=0.001)
+    assert not m.stats["cancelled"] and fractions and all(0.0 <= f <= 1.0 for f in fractions)
+    assert fractions == sorted(fractions)
+    stopped = uc.mesh.extract({}, resolution=512, progress=lambda f: True, poll_interval=0.001)
+    assert stopped.stats["cancelled"] and len(stopped.vertices) == 0
+    ev = threading.Event()
+    ev.set()
+    assert uc.mesh.extract({}, resolution=512, cancel=ev, poll_interval=0.001).stats["cancelled"]
+    with pytest.raises(ZeroDivisionError):
+        uc.mesh.extract({}, resolution=128, progress=lambda f: 1 / 0, poll_interval=0.001)
+
+
+def test_bad_arguments():
+    with pytest.raises(ValueError):
+        uc.extract_mesh({}, resolution=1)
+    with pytest.raises(TypeError):
+        uc.extract_mesh({}, resolution=2.5)
+    with pytest.raises(ValueError):
+        uc.extract_mesh({"mu": (float("nan"), 0, 0, 0)})
+    with pytest.raises(TypeError):
+        uc.extract_mesh({}, progress=3)
