@@ -63,10 +63,13 @@ def trap_material(name="Unbound Trap"):
 
 
 def extract(ob, depsgraph, resolution, min_faces, progress=None, cancel=None, threads=0):
+    """The core's mesh of fractal `ob`. The surface is {estimate = epsilon}: the fractal's own
+    epsilon in the Fixed threshold mode (the surface its render shows), else a 64th of a cell."""
     core = utils.native()
     params = export.object_parameters(ob, depsgraph, with_ramp=False)
-    return core.mesh.extract(params, resolution=resolution, min_faces=min_faces, threads=threads,
-                             progress=progress, cancel=cancel)
+    epsilon = ob.unbound.epsilon if ob.unbound.threshold_mode == 'FIXED' else 0.0
+    return core.mesh.extract(params, resolution=resolution, epsilon=epsilon, min_faces=min_faces,
+                             threads=threads, progress=progress, cancel=cancel)
 
 
 class UNBOUND_OT_convert_to_mesh(bpy.types.Operator):
