@@ -17,6 +17,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "mesh.h"
 #include "params.h"
 #include "render.h"
 #include "scene.h"
@@ -1033,7 +1034,116 @@ static PyObject *py_math_probe(PyObject *self, PyObject *args)
     return result;
 }
 
+/* ---------------------------------------------------------------- extract_mesh() */
+
+static PyObject *bytes_of(const void *p, size_t n)
+{
+    return PyBytes_FromStringAndSize(p ? (const char *)p : "", (Py_ssize_t)(p ? n : 0));
+}
+
+static PyObject *py_extract_mesh(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *kwlist[] = {"object", "resolution", "epsilon", "min_faces", "seed_spacing", "threads", "simd",
+                             "progress", "cancel", "poll_interval", NULL};
+    PyObject *obj_o, *res_o = NULL, *eps_o = NULL, *minf_o = NULL, *seed_o = NULL, *thr_o = NULL, *simd_o = NULL,
+                     *progress = Py_None, *cancel = Py_None, *poll_o = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O|$OOOOOOOOO", kwlist, &obj_o, &res_o, &eps_o, &minf_o, &seed_o,
+                                     &thr_o, &simd_o, &progress, &cancel, &poll_o))
+        return NULL;
+    ub_mesh_options opt = {256, 0.0, 0, 0, 0, 0, NULL, NULL, 0.05};
+    int resolution = 256, seed = 0, threads = 0, min_faces = 0;
+    double eps = 0.0, poll = 0.05;
+    if ((res_o && read_int(res_o, "resolution", 2, 65536, &resolution))
+        || (eps_o && read_double(eps_o, "epsilon", 0.0, 1e30, "", &eps))
+        || (minf_o && read_int(minf_o, "min_faces", 0, 2147483647.0, &min_faces))
+        || (seed_o && read_int(seed_o, "seed_spacing", 0, 65536, &seed))
+        || (thr_o && read_int(thr_o, "threads", 0, UB_MAX_THREADS, &threads))
+        || (poll_o && read_double(poll_o, "poll_interval", 0.001, 10.0, "", &poll)))
+        return NULL;
+    if (progress != Py_None && !PyCallable_Check(progress)) {
+        PyErr_SetString(PyExc_TypeError, "progress must be callable (fraction -> cancel?) or None");
+        return NULL;
+    }
+    if (cancel != Py_None && !PyObject_HasAttrString(cancel, "is_set")) {
+        PyErr_SetString(PyExc_TypeError, "cancel must have an is_set() method (e.g. threading.Event) or be None");
+        return NULL;
+    }
+    int avx2 = get_simd(simd_o);
+    if (avx2 < 0)
+        return NULL;
+    ub_object *obj = PyMem_Calloc(1, sizeof(ub_object));
+    if (!obj)
+        return PyErr_NoMemory();
+    if (parse_object(obj_o, "object", obj)) {
+        PyMem_Free(obj);
+        return NULL;
+    }
+    opt.resolution = resolution;
+    opt.epsilon = eps;
+    opt.min_faces = min_faces;
+    opt.seed_spacing = seed;
+    opt.threads = threads;
+    opt.use_avx2 = avx2;
+    opt.poll_interval = poll;
+    poll_state ps = {progress, cancel, NULL, 0, NULL, NULL, NULL};
+    if (progress != Py_None || cancel != Py_None) {
+        opt.poll = poll_cb;
+        opt.poll_data = &ps;
+    }
+    ub_mesh_result r;
+    ps.tstate = PyEval_SaveThread();
+    const char *err = ub_extract_mesh(obj, &opt, &r);
+    PyEval_RestoreThread(ps.tstate);
+    PyMem_Free(obj);
+    PyObject *result = NULL;
+    if (ps.failed) {
+        ub_mesh_free(&r);
+        PyErr_Restore(ps.exc_type, ps.exc_value, ps.exc_tb);
+        return NULL;
+    }
+    if (err) {
+        ub_mesh_free(&r);
+        PyErr_SetString(PyExc_MemoryError, err);
+        return NULL;
+    }
+    size_t nv = (size_t)r.vertex_count, nf = (size_t)r.face_count;
+    /* Each array becomes bytes and is freed at once: the peak holds one copy of one array. */
+    PyObject *arrays[5] = {NULL};
+    void **bufs[5] = {(void **)&r.vertices, (void **)&r.faces, (void **)&r.trap, (void **)&r.iterations,
+                      (void **)&r.estimate};
+    const size_t sizes[5] = {12 * nv, 12 * nf, 4 * nv, 4 * nv, 4 * nv};
+    for (int i = 0; i < 5; i++) {
+        arrays[i] = bytes_of(*bufs[i], sizes[i]);
+        free(*bufs[i]);
+        *bufs[i] = NULL;
+        if (!arrays[i]) {
+            for (int k = 0; k < i; k++)
+                Py_DECREF(arrays[k]);
+            ub_mesh_free(&r);
+            return NULL;
+        }
+    }
+    result = Py_BuildValue(
+        "{s:N,s:N,s:N,s:N,s:N,s:L,s:L,s:L,s:L,s:L,s:L,s:L,s:L,s:d,s:d,s:d,s:(ddddd),s:K,s:i,s:O}", "vertices",
+        arrays[0], "faces", arrays[1], "trap", arrays[2], "iterations", arrays[3], "estimate", arrays[4],
+        "vertex_count",
+        (long long)r.vertex_count, "face_count", (long long)r.face_count, "cells", (long long)r.cells,
+        "active_cells", (long long)r.active_cells, "evaluations", (long long)r.evaluations, "seeds",
+        (long long)r.seeds, "pieces", (long long)r.pieces, "pieces_removed", (long long)r.pieces_removed, "epsilon",
+        r.epsilon, "cell_size", r.cell_size, "seconds", r.seconds, "phase_seconds", r.phase_seconds[0], r.phase_seconds[1], r.phase_seconds[2], r.phase_seconds[3], r.phase_seconds[4], "peak_bytes", (unsigned long long)r.peak_bytes,
+        "threads", r.threads, "cancelled", r.cancelled ? Py_True : Py_False);
+    ub_mesh_free(&r);
+    return result;
+}
+
 static PyMethodDef methods[] = {
+    {"extract_mesh", (PyCFunction)(void (*)(void))py_extract_mesh, METH_VARARGS | METH_KEYWORDS,
+     "extract_mesh(object, *, resolution=256, epsilon=0, min_faces=0, seed_spacing=0, threads=0, simd='auto', "
+     "progress=None, cancel=None, poll_interval=0.05) -> dict: the closed, manifold surface {estimate = epsilon} "
+     "(epsilon 0: cell size / 64) in object space, from a narrow band of lattice cells (resolution cells across "
+     "the bounding ball); 'vertices' (float32 x3), 'faces' (int32 x3, counter-clockwise from outside), 'trap', "
+     "'iterations', 'estimate' (float32 per vertex) as bytes, and statistics. Pieces with fewer than min_faces "
+     "faces are removed. Same bytes for any thread count. See unbound_core.mesh"},
     {"render", (PyCFunction)(void (*)(void))py_render, METH_VARARGS | METH_KEYWORDS,
      "render(camera, objects, passes, *, window=None, threads=0, tile_size=32, simd='auto', progress=None, "
      "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None, stride=1, sample_range=None) "

@@ -15,10 +15,12 @@ from ._native import (  # noqa: F401
     cpu_info,
     describe,
     estimate,
+    extract_mesh,
     normals,
     render,
 )
 from . import same_bits  # noqa: F401
+from . import mesh  # noqa: F401,E402
 from .camera import look_at, orthographic, perspective  # noqa: F401
 
 __version__ = "0.1.0"

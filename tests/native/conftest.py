@@ -21,6 +21,8 @@ SANITIZED = bool(os.environ.get("UNBOUND_SANITIZED"))
 # unevenly so: wall-clock latencies say nothing about the core there.
 EMULATED = bool(os.environ.get("UNBOUND_EMULATED"))
 TIMING_UNRELIABLE = SANITIZED or EMULATED
+# Run on another platform's Python (tools/foreign.py: wine or qemu).
+FOREIGN = bool(os.environ.get("UNBOUND_FOREIGN"))
 
 # Cancel latency (issue 16, defects 2 and 8). The promise: a render stops within CANCEL_BUDGET_S of a
 # cancel on a quiet core. What the tests measure is the work done after the cancel: this process's
