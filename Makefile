@@ -1,6 +1,8 @@
-# Unbound: build, test, demo. Everything installs itself into .venv (Python 3.11).
-# bpy 4.2 has wheels for Python 3.11 only: prefer python3.11 where both exist.
-PYTHON ?= $(shell command -v python3.11 || command -v python3)
+# Unbound: build, test, demo. Everything installs itself into .venv.
+# bpy has wheels for one Python each: python3.11 -> bpy 4.2 LTS, else python3.13 -> bpy 5.2
+# (requirements-dev.txt pins both by python_version); with neither, tools/check_system.sh says what
+# to install (and installs it as root with apt-get). Override: make PYTHON=/path/to/python3.13
+PYTHON ?= $(shell command -v python3.11 || command -v python3.13)
 VENV := .venv
 PY := $(VENV)/bin/python
 WHEEL_GLOB := dist/unbound_core-*-cp311-abi3-*.whl
@@ -10,9 +12,11 @@ NATIVE_SOURCES := $(wildcard native/src/*.c native/src/*.h native/unbound_core/*
 	dist check-binaries test-platforms
 
 venv: $(VENV)/.stamp
-$(VENV)/.stamp: requirements-dev.txt
-	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
+# tools/check_system.sh first: the Python, its venv and headers, a C compiler and the X11/GL
+# libraries bpy loads (installed with apt-get as root; otherwise it prints the command and stops).
+$(VENV)/.stamp: requirements-dev.txt tools/check_system.sh
+	py=$$(sh tools/check_system.sh $(PYTHON)) && "$$py" -m venv $(VENV)
+	$(PY) -m pip install -q pip==$$(sed -n 's/^pip==//p' requirements-dev.txt)
 	$(PY) -m pip install -q -r requirements-dev.txt
 	touch $@
 

@@ -27,10 +27,37 @@ class RenderError(Exception):
 def camera_description(engine, depsgraph, width, height):
     """The native camera dict: Blender's own camera matrix and projection matrix, so focal length,
     sensor size and fit, shift, clipping, orthographic scale and pixel aspect all come for free;
-    for a panoramic camera its type and settings as Cycles reads them."""
+    for a panoramic camera its type and settings as Cycles reads them. With stereo 3D the engine's
+    active view picks the eye: its matrix (camera_model_matrix) and its horizontal shift
+    (camera_shift_x: off-axis convergence shifts each eye's frustum), as Cycles reads them."""
     cam_ob = evaluated_camera(engine.camera_override or depsgraph.scene.camera, depsgraph)
-    return camera_dict(depsgraph, cam_ob, engine.camera_model_matrix(cam_ob, use_spherical_stereo=False),
-                       width, height)
+    cam = camera_dict(depsgraph, cam_ob, engine.camera_model_matrix(cam_ob, use_spherical_stereo=False),
+                      width, height)
+    shift = engine.camera_shift_x(cam_ob, use_spherical_stereo=False) - cam_ob.data.shift_x
+    if shift and cam_ob.data.type == 'PANO':
+        # Cycles shifts a panorama's viewplane by the eye's shift_x.
+        vp = cam["viewplane"]
+        cam["viewplane"] = (vp[0] + shift, vp[1] + shift, vp[2], vp[3])
+    elif shift:
+        shift_projection_x(cam["projection"], shift, cam_ob.data, depsgraph.scene.render, width, height)
+    return cam
+
+
+def shift_projection_x(projection, shift, cam_data, render, width, height):
+    """Adds `shift` (in Blender's shift_x units) to a projection matrix from calc_matrix_camera,
+    as BKE_camera_params_compute_viewplane applies shift_x: the viewplane moves by shift times the
+    sensor-fit dimension (the width with horizontal fit; the height times the pixel aspect with
+    vertical fit), which is 2 shift fit / width in normalised device coordinates."""
+    aspect_x, aspect_y = render.pixel_aspect_x, render.pixel_aspect_y
+    fit = cam_data.sensor_fit
+    if fit == 'AUTO':
+        fit = 'HORIZONTAL' if aspect_x * width >= aspect_y * height else 'VERTICAL'
+    scale = 1.0 if fit == 'HORIZONTAL' else (aspect_y / aspect_x) * height / width
+    delta = 2.0 * shift * scale
+    if cam_data.type == 'PERSP':
+        projection[0][2] += delta
+    else:
+        projection[0][3] -= delta
 
 
 # Blender's panoramic camera types Unbound renders, as Cycles does (their core names are the

@@ -547,9 +547,14 @@ def _output_socket(rl_node, name):
     return sock if sock is not None and sock.enabled else None
 
 
+# Names of the compositor nodes Set Up Compositing makes: a second run replaces exactly these.
+NODE_PREFIX = "Unbound "
+
+
 class UNBOUND_OT_setup_compositing(bpy.types.Operator):
-    """Build a compositor node tree from Unbound's passes: the image to the output, every enabled pass
-    into a multilayer OpenEXR file, and a normalised depth preview in the Viewer"""
+    """Add compositor nodes for Unbound's passes beside the user's own: the image to the output
+    (unless the tree has one), every enabled pass into a multilayer OpenEXR file, and a normalised
+    depth preview in a Viewer"""
     bl_idname = "scene.unbound_setup_compositing"
     bl_label = "Set Up Compositing"
     bl_options = {'REGISTER', 'UNDO'}
@@ -562,34 +567,38 @@ class UNBOUND_OT_setup_compositing(bpy.types.Operator):
         if scene.render.engine != utils.ENGINE_ID:
             scene.render.engine = utils.ENGINE_ID
         tree = utils.compositor_tree(scene, create=True)
-        tree.nodes.clear()
+        # The user's nodes stay (issue 16): only the nodes an earlier run of this operator made
+        # (named with NODE_PREFIX) are replaced, and ours go below the user's.
+        for node in [n for n in tree.nodes if n.name.startswith(NODE_PREFIX)]:
+            tree.nodes.remove(node)
+        theirs = list(tree.nodes)
+        base = min((n.location.y for n in theirs), default=0.0) - (700.0 if theirs else 0.0)
         new_api = bpy.app.version >= (5, 0, 0)
-        rl = tree.nodes.new("CompositorNodeRLayers")
+        output_type = "NodeGroupOutput" if new_api else "CompositorNodeComposite"
+
+        def add(kind, name, x, y):
+            node = tree.nodes.new(kind)
+            node.name = node.label = NODE_PREFIX + name
+            node.location = (x, base + y)
+            return node
+
+        rl = add("CompositorNodeRLayers", "Render Layers", -400, 0)
         rl.scene = scene
         rl.layer = context.view_layer.name
-        rl.location = (-400, 0)
-        if new_api:
-            final = tree.nodes.new("NodeGroupOutput")
-            final_in = final.inputs[0]
-        else:
-            final = tree.nodes.new("CompositorNodeComposite")
-            final_in = final.inputs["Image"]
-        final.location = (300, 200)
-        tree.links.new(rl.outputs["Image"], final_in)
+        if not any(n.bl_idname == output_type for n in theirs):
+            final = add(output_type, "Output", 300, 200)
+            tree.links.new(rl.outputs["Image"], final.inputs[0] if new_api else final.inputs["Image"])
 
-        viewer = tree.nodes.new("CompositorNodeViewer")
-        viewer.location = (300, -100)
+        viewer = add("CompositorNodeViewer", "Viewer", 300, -100)
         depth = _output_socket(rl, "Depth")
         if depth is not None:
-            norm = tree.nodes.new("CompositorNodeNormalize")
-            norm.location = (50, -100)
+            norm = add("CompositorNodeNormalize", "Depth Preview", 50, -100)
             tree.links.new(depth, norm.inputs[0])
             tree.links.new(norm.outputs[0], viewer.inputs[0])
         else:
             tree.links.new(rl.outputs["Image"], viewer.inputs[0])
 
-        fo = tree.nodes.new("CompositorNodeOutputFile")
-        fo.location = (300, -350)
+        fo = add("CompositorNodeOutputFile", "Pass Files", 300, -350)
         if new_api:
             fo.format.media_type = 'MULTI_LAYER_IMAGE'
             fo.directory = self.directory

@@ -99,9 +99,26 @@ def _sync_display_size(ob):
 # Keep each fractal empty's sphere display on the bounding sphere of its set. Handlers rather than
 # property update callbacks: update callbacks make the bpy 4.2 module crash at process exit, and
 # they would not follow keyframes anyway. Only differing sizes are written, so they settle at once.
+#
+# Never while rendering. A final render runs these handlers for its own depsgraph (frame_change_post
+# with the render's depsgraph, after it evaluated the frame), and the handler writes the ORIGINAL
+# object. Such a write tags the object, and Blender then evaluates the render depsgraph a second
+# time for the tag: it copies the original over the evaluated object again without re-running its
+# animation, so every keyframed Object.unbound value in the frame went back to the original's
+# (un-animated) value; the transform, being runtime data Blender keeps, stayed right. A size only
+# differs on the first frame of a render (the original does not change during a render), so the
+# first frame got the original's values: those of the frame the file was saved at when the add-on
+# was registered before the file loaded (Blender then writes that frame's animated values into the
+# original), or whatever a script had set. Only the viewport's depsgraph drives the display size.
+def _is_render(depsgraph):
+    return depsgraph is not None and depsgraph.mode == 'RENDER'
+
+
 @bpy.app.handlers.persistent
 def sync_updated_objects(scene, depsgraph):
     """After edits: only the objects the depsgraph reports as updated."""
+    if _is_render(depsgraph):
+        return
     for update in depsgraph.updates:
         if isinstance(update.id, bpy.types.Object):
             _sync_display_size(update.id.original)
@@ -110,6 +127,8 @@ def sync_updated_objects(scene, depsgraph):
 @bpy.app.handlers.persistent
 def sync_all_objects(scene, depsgraph=None):
     """After frame changes (keyframed mu): every object of the scene."""
+    if _is_render(depsgraph):
+        return
     for ob in scene.objects:
         _sync_display_size(ob)
 

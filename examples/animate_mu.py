@@ -35,15 +35,12 @@ import os
 import sys
 import time
 
-try:
-    import bpy
-except ImportError:
-    sys.exit("animate_mu: run me in Blender (blender --background --python %s) or with the bpy "
-             "module (make venv, or pip install bpy)" % sys.argv[0])
-
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)  # Blender's --python does not put the script's folder on the path
+# unbound_extension imports bpy first; where that fails it exits with the real error and the fix.
 from unbound_extension import add_camera, ensure_extension, new_scene, script_args, set_png_format  # noqa: E402
+import bpy  # noqa: E402
+
 LOOP_FRAMES = 48      # frames per loop of mu around its path
 KEYS_PER_LOOP = 8     # keyframes per loop; Bezier curves with cyclic auto handles in between
 MU_CENTER = (-0.2, 0.8)  # the paper's mu = -0.2 + 0.8i ...

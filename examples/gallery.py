@@ -34,15 +34,12 @@ import os
 import sys
 import time
 
-try:
-    import bpy
-except ImportError:
-    sys.exit("gallery: run me in Blender (blender --background --python %s) or with the bpy "
-             "module (make venv, or pip install bpy)" % sys.argv[0])
-
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)  # Blender's --python does not put the script's folder on the path
+# unbound_extension imports bpy first; where that fails it exits with the real error and the fix.
 from unbound_extension import add_camera, ensure_extension, new_scene, script_args, set_png_format  # noqa: E402
+import bpy  # noqa: E402
+
 PRESET_MENU = "UNBOUND_MT_fractal_presets"
 LOOK_MENU = "UNBOUND_MT_look_presets"
 # The look preset (the scene's shading: Render tab, Unbound panel's header) each fractal preset is

@@ -6,7 +6,38 @@ import glob
 import os
 import sys
 
-import bpy
+# Debian/Ubuntu packages of the X11/GL libraries bpy links even in background mode (libxt6 is
+# libxt6t64 on Debian 13 and Ubuntu 24.04); tools/check_system.sh checks and installs them.
+BPY_LIBRARIES = ("libx11-6 libxext6 libxrender1 libxi6 libxfixes3 libxkbcommon0 libsm6 libice6 libxxf86vm1 "
+                 "libxt6 libgl1 libegl1")
+
+
+def bpy_import_failed(err, script=None):
+    """The message for an `import bpy` that raised err: the real error, and the likely fix."""
+    script = script or os.path.basename(sys.argv[0]) or "unbound"
+    py = "Python %d.%d (%s)" % (sys.version_info[0], sys.version_info[1], sys.executable)
+    if isinstance(err, ModuleNotFoundError) and err.name == "bpy":
+        return ("%s: no bpy module in %s.\n"
+                "Run me in Blender (blender --background --python %s -- ...), or with the bpy module:\n"
+                "`make demo` in the repository builds .venv with it (then .venv/bin/python %s), or\n"
+                "pip install bpy==4.2.23 (Python 3.11 only) / bpy==5.2.3 (Python 3.13 only)."
+                % (script, py, sys.argv[0], sys.argv[0]))
+    text = "%s: %s" % (type(err).__name__, err)
+    if "cannot open shared object file" in str(err):
+        hint = ("bpy links X11/GL libraries even in background mode and one is missing. In the repository,\n"
+                "`sh tools/check_system.sh` names (or, as root, installs) them; on Debian/Ubuntu:\n"
+                "sudo apt-get install %s" % BPY_LIBRARIES)
+    elif isinstance(err, ModuleNotFoundError):
+        hint = "bpy needs the module %r: pip install -r requirements-dev.txt (or make venv)" % err.name
+    else:
+        hint = "bpy is installed for this Python but fails to load (see the error above)"
+    return "%s: bpy is installed but `import bpy` failed in %s:\n    %s\n%s" % (script, py, text, hint)
+
+
+try:
+    import bpy
+except ImportError as _err:
+    sys.exit(bpy_import_failed(_err))
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ENGINE_ID = "UNBOUND"

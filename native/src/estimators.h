@@ -33,6 +33,9 @@ typedef struct {
     int max_iterations;
     /* Hit threshold in world units at ray distance t: eps0 + eps1 * t (fixed mode: eps1 = 0). */
     vf eps0, eps1;
+    /* The render's cancel flag (NULL outside renders): estimators whose one call can be long (the
+     * IFS search) poll it and cut their work short, still returning a lower bound. */
+    volatile int *cancel;
 } ub_de_params;
 
 static inline void de_params(const ub_object *o, const ub_camera *cam, ub_de_params *p)
@@ -42,6 +45,7 @@ static inline void de_params(const ub_object *o, const ub_camera *cam, ub_de_par
         p->mu[i] = v_set1((float)o->mu[i]);
     p->bail2 = v_set1((float)(o->bailout * o->bailout));
     p->max_iterations = o->max_iterations;
+    p->cancel = NULL;
     int fixed = o->epsilon_mode == UB_EPSILON_FIXED;
     if (!cam && !fixed) { /* estimate(): no camera, no threshold needed */
         p->eps0 = p->eps1 = v_set1(0.0f);
@@ -326,7 +330,7 @@ static inline void de_ifs(const ub_de_params *p, vf x, vf y, vf z, const int wan
     for (int l = 0; l < UB_LANES; l++) {
         double pt[3] = {xs[l], ys[l], zs[l]}, address;
         int depth;
-        ds[l] = (float)ub_ifs_distance(p->obj, pt, &address, &depth);
+        ds[l] = (float)ub_ifs_distance(p->obj, pt, &address, &depth, p->cancel);
         ns[l] = (float)depth;
         as[l] = (float)address;
     }

@@ -127,8 +127,11 @@ typedef struct {
  * own bound. The result stays a lower bound; only pathological map sets (many nearly equal maps)
  * get there, and their cost stays bounded. */
 #define UB_IFS_MAX_SPLITS 4096
+/* The cancel flag is read every this many splits (each costs up to UB_MAX_IFS_MAPS children):
+ * a few tens of microseconds of work, where the 4096 splits of one estimate take milliseconds. */
+#define UB_IFS_POLL 64
 
-double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth)
+double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth, volatile int *cancel)
 {
     const int m = o->map_count, max_depth = o->ifs_depth;
     const double R = o->ifs_radius;
@@ -175,7 +178,9 @@ double ub_ifs_distance(const ub_object *o, const double p[3], double *address, i
             lv->scale = pa->scale * o->map_norm[n.map];
         }
         double radius = lv->scale * R;
-        if (++splits > UB_IFS_MAX_SPLITS) {
+        ++splits;
+        if (splits > UB_IFS_MAX_SPLITS
+            || (splits % UB_IFS_POLL == 0 && cancel && __atomic_load_n(cancel, __ATOMIC_RELAXED))) {
             tied = fmin(tied, n.lower);
             for (int k = 0; k < sp; k++)
                 tied = fmin(tied, stack[k].lower);

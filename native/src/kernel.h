@@ -24,6 +24,16 @@
 #define UB_CAT(a, b) UB_CAT2(a, b)
 #define UB_ENTRY(name) UB_CAT(name, KERNEL_SUFFIX)
 
+/* Whether the render was cancelled. Every loop whose body can be long polls it, so the work
+ * between two polls stays bounded at any setting the parameter table allows (issue 16: a
+ * packet's normals, AO, sea waves and shadows, a march's steps and bisection, the IFS search);
+ * tests/native/test_cancel_grid.py holds it to 100 ms at the limits. After a cancel the
+ * results are garbage and are discarded (the caller returns at its next poll). */
+static inline int cancelled(const ub_scene *sc)
+{
+    return __atomic_load_n(sc->cancel, __ATOMIC_RELAXED) != 0;
+}
+
 #include "estimators.h"
 #include "march.h"
 #include "shading.h"
@@ -64,8 +74,10 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
 {
     const ub_hit_buffer *hb = sc->hits;
     ub_de_params dps[UB_MAX_OBJECTS];
-    for (int k = 0; k < sc->object_count; k++)
+    for (int k = 0; k < sc->object_count; k++) {
         de_params(&sc->objects[k], sc->camera, &dps[k]);
+        dps[k].cancel = sc->cancel;
+    }
     double off[2];
     ub_sample_offset(sample, &off[0], &off[1]);
     for (int y = ty0; y < ty1; y++) {
@@ -187,6 +199,8 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const double of
             sea_lanes |= 1 << l;
     }
     for (int k = 0; k < sc->object_count; k++) {
+        if (cancelled(sc))
+            return;
         const ub_object *o = &sc->objects[k];
         int mine = 0;
         for (int l = 0; l < UB_LANES; l++)
@@ -335,7 +349,7 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
                     direct[i][l] += (float)(sh->axle_light * c);
         }
     }
-    for (int j = 0; j < sh->light_count; j++) {
+    for (int j = 0; j < sh->light_count && !cancelled(sc); j++) {
         const ub_light *L = &sh->lights[j];
         double E[3][UB_LANES], cosv[UB_LANES];
         int cand = 0;
@@ -618,8 +632,10 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
     const ub_film *film = sc->film;
     const ub_shading *sh = sc->shading;
     ub_de_params dps[UB_MAX_OBJECTS];
-    for (int k = 0; k < sc->object_count; k++)
+    for (int k = 0; k < sc->object_count; k++) {
         de_params(&sc->objects[k], cam, &dps[k]);
+        dps[k].cancel = sc->cancel;
+    }
     const int want_trap = film->pass[UB_PASS_ORBIT_TRAP] != NULL;
     /* AO only changes the ambient term: without ambient light it is needed for its pass alone. */
     const int use_ao = sh->ao_strength > 0.0f
@@ -655,6 +671,8 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                     break;
                 ub_surface sf;
                 surface(sc, dps, off, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
+                if (cancelled(sc))
+                    return;
                 float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
                 direct_light(sc, dps, bounce, hit_lanes, &pr, &tr, &sf, direct, shadow, cnt);
                 if (use_ao)
@@ -662,6 +680,8 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                 else
                     for (int l = 0; l < UB_LANES; l++)
                         ao[l] = 1.0f;
+                if (cancelled(sc))
+                    return;
                 alive = add_surface_light(sh, bounce, hit_lanes, &sf, direct, shadow, ao, &tr, &pr, &ps);
             }
             write_passes(sc, sample, x, y, n, &ps);

@@ -104,7 +104,7 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     res->hit = hit;
     res->s = res->iters = res->dist = s;
     for (int step = 0; step < o->max_steps && m_bits(active); step++) {
-        if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
+        if (cancelled(sc))
             return;
         de(dp, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
                   v_fma(s, qd[3], q0[3]), &dist, &iters);
@@ -133,7 +133,7 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
      * Shadow rays only ask whether something is hit, not where. */
     vm refine = refine_hits ? hit : m_false();
     vf lo = prev, hi = s;
-    for (int k = 0; k < o->bisection_steps && m_bits(refine); k++) {
+    for (int k = 0; k < o->bisection_steps && m_bits(refine) && !cancelled(sc); k++) {
         vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
         de(dp, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
                   v_fma(mid, qd[3], q0[3]), &dist, &iters);

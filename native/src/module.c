@@ -100,13 +100,33 @@ static int read_bool(PyObject *o, const char *name, int *out)
     return 0;
 }
 
+/* The UTF-8 of str o, or NULL (with an exception set) for a non-string or one with an embedded
+ * NUL: C compares at most up to the first NUL, so "alpha\0x" would read as "alpha" (issue 16). */
+static const char *key_utf8(PyObject *o, const char *name, const char *what)
+{
+    Py_ssize_t len;
+    const char *s = PyUnicode_Check(o) ? PyUnicode_AsUTF8AndSize(o, &len) : NULL;
+    if (!s) {
+        PyErr_Clear();
+        PyErr_Format(PyExc_TypeError, "%s%s%s must be %s", name, what ? " " : "", what ? what : "",
+                     what ? "strings" : "a string");
+        return NULL;
+    }
+    if (strlen(s) != (size_t)len) {
+        PyErr_Format(PyExc_ValueError, "%s%s%s must not contain NUL characters, got %R", name, what ? " " : "",
+                     what ? what : "", o);
+        return NULL;
+    }
+    return s;
+}
+
 static int read_choice(PyObject *o, const char *name, const char *const *choices, int *out)
 {
     if (!PyUnicode_Check(o)) {
         PyErr_Format(PyExc_TypeError, "%s must be a string", name);
         return -1;
     }
-    const char *s = PyUnicode_AsUTF8AndSize(o, NULL);
+    const char *s = key_utf8(o, name, NULL);
     if (!s)
         return -1;
     char names[ERRBUF] = "";
@@ -306,12 +326,9 @@ static int check_keys(PyObject *d, const char *name, const ub_param_section *s)
     PyObject *key, *value;
     Py_ssize_t pos = 0;
     while (PyDict_Next(d, &pos, &key, &value)) {
-        const char *k = PyUnicode_Check(key) ? PyUnicode_AsUTF8AndSize(key, NULL) : NULL;
-        if (!k) {
-            PyErr_Clear();
-            PyErr_Format(PyExc_TypeError, "%s keys must be strings", name);
+        const char *k = key_utf8(key, name, "keys");
+        if (!k)
             return -1;
-        }
         if (!find_row(s, k, NULL)) {
             PyErr_Format(PyExc_ValueError, "%s has an unknown key '%.64s'", name, k);
             return -1;
@@ -623,10 +640,8 @@ static int parse_passes(PyObject *passes_o, ub_film *film, Py_buffer *views, int
     for (Py_ssize_t i = 0; i < PyList_Size(items) && !rc; i++) {
         PyObject *pair = PyList_GetItem(items, i);
         PyObject *key = PyTuple_GetItem(pair, 0), *value = PyTuple_GetItem(pair, 1);
-        const char *k = PyUnicode_Check(key) ? PyUnicode_AsUTF8AndSize(key, NULL) : NULL;
+        const char *k = key_utf8(key, "passes", "keys (pass names)");
         if (!k) {
-            PyErr_Clear();
-            PyErr_SetString(PyExc_TypeError, "passes keys must be pass names (strings)");
             rc = -1;
             break;
         }
@@ -648,6 +663,21 @@ static int parse_passes(PyObject *passes_o, ub_film *film, Py_buffer *views, int
         }
     }
     Py_DECREF(items);
+    /* Every pass is written by the kernels as its own memory: two passes sharing bytes (the same
+     * array twice, or overlapping views of one) would each hold the other's values. Refused. */
+    for (int a = 0; a < UB_PASS_COUNT && !rc; a++) {
+        for (int b = a + 1; b < UB_PASS_COUNT && !rc && have[a]; b++) {
+            if (!have[b])
+                continue;
+            const char *pa = views[a].buf, *pb = views[b].buf;
+            if (pa < pb + views[b].len && pb < pa + views[a].len) {
+                PyErr_Format(PyExc_ValueError,
+                             "passes['%s'] and passes['%s'] share memory: give each pass its own array",
+                             ub_pass_names[a], ub_pass_names[b]);
+                rc = -1;
+            }
+        }
+    }
     return rc;
 }
 

@@ -114,9 +114,32 @@ static int run_job(ub_job *job, const ub_render_options *opt, int threads, ub_wo
         }
     }
     if (!started) {
-        /* No thread could be created: render on the calling thread. */
-        job->workers_running = 1;
-        worker_main(&workers[0]);
+        /* No thread could be created (a pids or RLIMIT_NPROC limit, no address space for a stack):
+         * render on the calling thread, one row of a tile at a time, polling between them, so
+         * progress and cancel are seen as with workers (issue 16, defect 5). Pixels do not depend
+         * on how the film is cut, so the image is the same. */
+        uint64_t fp = ub_fp_enter();
+        double last_poll = ub_monotonic_seconds();
+        for (int t = 0; t < job->tile_count && !__atomic_load_n(job->scene->cancel, __ATOMIC_RELAXED); t++) {
+            int tx = (t % job->tiles_x) * job->tile, ty = (t / job->tiles_x) * job->tile;
+            int tx1 = tx + job->tile < job->width ? tx + job->tile : job->width;
+            int ty1 = ty + job->tile < job->height ? ty + job->tile : job->height;
+            for (int y = ty; y < ty1 && !__atomic_load_n(job->scene->cancel, __ATOMIC_RELAXED); y++) {
+                job->kernel(job->scene, job->phase, job->sample, tx, y, tx1, y + 1, &job->per_thread[0]);
+                double now = ub_monotonic_seconds();
+                if (opt->poll && now - last_poll >= 1e-9 * (double)opt->poll_interval_ns) {
+                    last_poll = now;
+                    double frac = (t + (double)(y + 1 - ty) / (ty1 - ty)) / job->tile_count;
+                    ub_fp_leave(fp); /* the callback runs Python in the caller's own FP mode */
+                    if (opt->poll(opt->poll_data, (job_index + frac) / job_total))
+                        __atomic_store_n(job->scene->cancel, 1, __ATOMIC_RELAXED);
+                    fp = ub_fp_enter();
+                }
+            }
+            job->tiles_done = t + 1;
+        }
+        ub_fp_leave(fp);
+        job->workers_running = 0;
     }
     /* Poll: report progress and let the caller cancel, until the workers are done. */
     ub_mutex_lock(&job->lock);

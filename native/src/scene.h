@@ -259,7 +259,10 @@ typedef struct {
     const ub_film *film;
     const ub_shading *shading;
     ub_hit_buffer *hits;
-    /* Set to non-zero from any thread to stop the render at the next marching step. */
+    /* Set to non-zero from any thread to stop the render. The kernels poll it between bounded
+     * pieces of work (a packet, a marching or bisection step, an object's estimate in AO, sea
+     * waves and normals, a light, 64 splits of the IFS estimate), so a cancel is seen within a
+     * few ms of one thread's work at any setting the parameter table allows. */
     volatile int *cancel;
 } ub_scene;
 
@@ -299,8 +302,11 @@ const char *ub_ifs_prepare(ub_object *obj);
 /* Lower bound on the distance from object-space point p to the IFS attractor (the union of the
  * leaf balls at ifs_depth); *address: where in the map hierarchy the nearest leaf lies, in
  * [0, 1); *depth: the depth at which the bound was settled. Scalar double precision, shared by
- * both kernels so they agree bit for bit. */
-double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth);
+ * both kernels so they agree bit for bit. With `cancel` (may be NULL) set, the search stops
+ * within UB_IFS_POLL splits and returns a lower bound all the same (the bound of every node still
+ * waiting). */
+double ub_ifs_distance(const ub_object *o, const double p[3], double *address, int *depth,
+                       volatile int *cancel);
 const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
                               const double projection[4][4]);
 /* World-space width of one pixel at ray distance t (the smaller side of a non-square pixel). */

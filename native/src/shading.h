@@ -5,7 +5,7 @@
 static vf scene_distance(const ub_scene *sc, const ub_de_params *dps, const double p[3][UB_LANES])
 {
     vf best = v_set1(HUGE_VALF);
-    for (int k = 0; k < sc->object_count; k++) {
+    for (int k = 0; k < sc->object_count && !cancelled(sc); k++) {
         const ub_object *o = &sc->objects[k];
         if (o->bound_radius < 0.0)
             continue;
@@ -27,7 +27,7 @@ static void ambient_occlusion(const ub_scene *sc, const ub_de_params *dps, int l
 {
     const ub_shading *sh = sc->shading;
     float occ[UB_LANES] = {0}, wsum = 0.0f;
-    for (int i = 1; i <= sh->ao_samples; i++) {
+    for (int i = 1; i <= sh->ao_samples && !cancelled(sc); i++) {
         double h = sh->ao_distance * i / sh->ao_samples;
         double pts[3][UB_LANES];
         for (int l = 0; l < UB_LANES; l++)

@@ -251,3 +251,69 @@ def test_parameters_table_is_complete_and_read_only():
                 assert row["min"] <= row["default"] <= row["max"], (section, key)
     with pytest.raises(TypeError):
         uc.PARAMETERS["object"]["mu"] = {}
+
+
+# Issue 16, smaller defects: a key with an embedded NUL read as its prefix in C (so "mu\0junk" was
+# accepted and ignored, "alpha\0x" wrote the alpha pass), and two passes sharing one array were
+# accepted, each then holding the other's values.
+@pytest.mark.parametrize("where", ["object", "shading", "light", "camera", "pass", "choice"])
+def test_keys_with_an_embedded_nul_are_refused(where):
+    cam, objects, shading, passes = make_camera(W, H), [dict(max_iterations=8)], {}, None
+    if where == "object":
+        objects = [{"max_iterations": 8, "mu\0junk": (0.0, 0.0, 0.0, 0.0)}]
+    elif where == "shading":
+        shading = {"samples\0": 2}
+    elif where == "light":
+        shading = dict(lights=[{"type": "sun", "color\0x": (1.0, 1.0, 1.0)}])
+    elif where == "camera":
+        cam["width\0x"] = 3
+    elif where == "pass":
+        passes = {"depth": np.zeros((H, W), np.float32), "alpha\0x": np.zeros((H, W), np.float32)}
+    elif where == "choice":
+        objects = [dict(kind="ifs\0junk")]
+    with pytest.raises(ValueError, match="must not contain NUL characters"):
+        call(cam, objects, passes, shading=shading)
+
+
+def test_aliased_pass_buffers_are_refused():
+    a = np.zeros((H, W), np.float32)
+    with pytest.raises(ValueError, match=r"passes\['alpha'\] and passes\['depth'\] share memory"):
+        call(passes={"alpha": a, "depth": a})
+    rgba = np.zeros((H, W, 4), np.float32)
+    with pytest.raises(ValueError, match="share memory"):  # overlapping views of one array
+        call(passes={"combined": rgba, "alpha": rgba[..., 3:4].copy(), "depth": rgba.reshape(-1)[:H * W].reshape(H, W)})
+    # Distinct arrays (and None) are fine.
+    call(passes={"alpha": a, "depth": a.copy(), "normal": None})
+
+
+@pytest.mark.skipif(__import__("sys").version_info < (3, 12),
+                    reason="__buffer__ (PEP 688) needs Python >= 3.12: run under tools/py313.sh")
+def test_pass_whose_buffer_rewrites_the_passes_dict():
+    """Issue 16, defect 9: a pass object whose __buffer__ rewrites the passes dict during render().
+    The core reads a snapshot of the dict, so every pass given is rendered, and every buffer it
+    acquired is released (a leaked export keeps the bytearray from being resized)."""
+    storage = {name: bytearray(H * W * 4) for name in ("alpha", "depth", "steps")}
+    released = []
+
+    class Rewriting:
+        def __init__(self, name, passes):
+            self.name, self.passes = name, passes
+
+        def __buffer__(self, flags):
+            self.passes.clear()
+            self.passes["steps"] = np.zeros((H, W), np.float32)
+            return memoryview(storage[self.name]).cast("f", (H, W))
+
+        def __release_buffer__(self, view):
+            released.append(self.name)
+            view.release()
+
+    passes = {}
+    passes.update(alpha=Rewriting("alpha", passes), depth=Rewriting("depth", passes),
+                  steps=memoryview(storage["steps"]).cast("f", (H, W)))
+    call(passes=passes)
+    assert sorted(released) == ["alpha", "depth"]
+    for name, data in storage.items():
+        data.extend(b"\0\0\0\0")  # BufferError if an export leaked
+        values = np.frombuffer(bytes(data[:H * W * 4]), np.float32)
+        assert np.isfinite(values).all() and values.any(), name  # rendered, not skipped

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import SANITIZED, alloc_passes, make_camera
+from conftest import EMULATED, SANITIZED, alloc_passes, make_camera
 
 pytestmark = pytest.mark.skipif(SANITIZED, reason="ASan's allocator keeps freed memory in quarantine")
 
@@ -64,6 +64,9 @@ def test_thousand_renders_with_flat_memory():
     print("after %d more rounds: RSS %+d bytes, traced Python allocations %+d bytes"
           % (RENDERS - WARM_UP, rss_growth, traced_growth))
     # 900 rounds of 4 calls: a leak of one 48x36 pass (27 KB) per round would be 24 MB.
-    assert rss_growth < 2 * 2 ** 20, rss_growth
+    # qemu-user keeps ~290 KB of its own per guest thread ever started (measured with plain Python
+    # threads: +516 MB over 1800), so under emulation only the traced allocations say something.
+    if not EMULATED:
+        assert rss_growth < 2 * 2 ** 20, rss_growth
     # Less than 16 bytes per round: not one leaked Python object per call.
     assert traced_growth < 16 * (RENDERS - WARM_UP), traced_growth

@@ -81,19 +81,18 @@ def author(path):
 
 
 # The worker guard of docs/farm.md, run by `--python-expr` before `-f`/`-a`: fail when Unbound is
-# not enabled (Blender would otherwise render the frame with another engine and exit 0), and
-# evaluate the scene at its frame once (see render(order="before")).
+# not enabled (Blender would otherwise render the frame with another engine and exit 0).
 GUARD = ("import bpy; s = bpy.context.scene; "
-         "assert s.render.engine == 'UNBOUND', 'Unbound is not enabled on this worker: ' + s.render.engine; "
-         "s.frame_set(s.frame_current)")
+         "assert s.render.engine == 'UNBOUND', 'Unbound is not enabled on this worker: ' + s.render.engine")
 
 
 def render(path, first, last, output, threads, order="after"):
     """`blender -b SCENE.blend --addons bl_ext.system.unbound -o OUTPUT -t THREADS -s FIRST -e LAST -a`.
     order "before": `blender -b --addons ... SCENE.blend ...` (the add-on registered before the file
-    loads, as it is when a worker's preferences enable it): then Blender 4.2/4.3 render the first
-    frame of the range with the animated values of the file's saved current frame, unless the
-    scene is evaluated once first ("before-guard": GUARD, as docs/farm.md's command lines do)."""
+    loads, as it is when a worker's preferences enable it); "before-guard": the same with GUARD run
+    after loading, as docs/farm.md's command lines do. Every order gives the same frames (the first
+    frame of the range once had the saved frame's animated values with the add-on registered
+    first: docs/farm.md, 'Load order does not matter')."""
     if order == "after":
         bpy.ops.wm.open_mainfile(filepath=str(path))
         mod = enable_like_the_command_line()

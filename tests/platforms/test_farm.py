@@ -10,9 +10,9 @@ processes with empty user directories enabling it the way `blender -b --addons` 
 - The real `blender` 4.3 binary (Python 3.13; the Debian trixie chroot of tools/blender_gui.sh):
   `blender -b scene.blend --addons bl_ext.system.unbound -o ... -f 2` and a worker enabling it by
   --python-expr write frames with the same pixels as bpy's.
-  With the add-on registered before the file (`--addons` first, or enabled in a worker's
-  preferences) the guard of docs/farm.md gives the same frame; without it, Blender 4.2/4.3 give
-  the first frame the saved frame's animated values (an expected failure, kept to see a fix).
+  With the add-on registered before the file (`--addons` first, or enabled in a worker's saved
+  preferences), with or without the guard of docs/farm.md, the first frame rendered is the same
+  frame too (it once had the animated values of the frame the file was saved at).
   A worker without the add-on: the guard exits 2 and writes nothing (Blender alone would render
   the frame with EEVEE and exit 0).
 - The six per-platform zips installed as one package for a mixed farm: a Linux x86-64 worker picks
@@ -214,12 +214,16 @@ def test_guard_when_enabled_before_loading(farm):
         assert got[channel].tobytes() == want[channel].tobytes(), channel
 
 
-@pytest.mark.xfail(reason="Blender 4.2/4.3: with the add-on registered before the file loads, the first "
-                          "frame of a render whose range starts elsewhere than the file's saved frame "
-                          "gets the saved frame's animated values (docs/farm.md, 'Load order')", strict=False)
 def test_first_frame_when_enabled_before_loading(farm):
+    """The same without the guard: the first frame of the range (2; the file was saved at frame 1)
+    has worker A's bits in every pass. It once had frame 1's animated values: the add-on's
+    frame_change_post handler wrote the original object during the render, and Blender copied the
+    original's properties over the render's evaluated ones
+    (docs/farm.md, 'Load order does not matter')."""
     got, want = first_frame_enabled_before_loading(farm, "before", "before")
-    assert got["ViewLayer.Depth.Z"].tobytes() == want["ViewLayer.Depth.Z"].tobytes()
+    assert sorted(got) == sorted(want)
+    for channel in want:
+        assert got[channel].tobytes() == want[channel].tobytes(), channel
 
 
 def test_mixed_platform_share(farm):
@@ -283,7 +287,7 @@ def real_worker(farm, name, *blender_args, scene=True, expect_rc=0):
     """`blender -b [ARGS...]` with BLENDER_SYSTEM_EXTENSIONS and a fresh HOME of its own; with
     scene=True the .blend comes first. Returns (report of the extension, output)."""
     home = WORK / ("home_" + name)
-    home.mkdir()
+    home.mkdir(exist_ok=True)   # it exists when a test wrote the worker's preferences first
     args = [chroot_path(WORK / "scene.blend")] if scene else []
     rc, out = blender_gui("run", "env", "HOME=" + chroot_path(home),
                           "BLENDER_SYSTEM_EXTENSIONS=" + chroot_path(farm["system_dir"]),
@@ -314,7 +318,10 @@ def test_real_blender_workers(farm, real_blender):
     4.2's pixels; D enables the add-on from --python-expr under --factory-startup, on 1 thread,
     and writes frame 3 with worker B's pixels; E puts --addons before the file and runs the guard:
     frame 2 again; F has no --addons: the guard stops it with exit code 2 and no file (without the
-    guard Blender renders the frame with EEVEE and exits 0)."""
+    guard Blender renders the frame with EEVEE and exits 0). G puts --addons before the file with
+    no guard, and H's saved preferences enable Unbound (no --addons): both register the add-on
+    before the file loads, and frame 2, the first frame they render, is frame 2 again (it once had
+    the animated values of frame 1, at which the file was saved)."""
     r, _ = real_worker(farm, "c", "--addons", MODULE, "-o", chroot_path(WORK / "c" / "frame_"), "-f", "2")
     assert r["stats"]["rays"] > 0 and not r["stats"]["cancelled"], r
     assert_same_pixels(WORK / "c" / "frame_0002.exr", WORK / "a" / "frame_0002.exr")
@@ -334,6 +341,21 @@ def test_real_blender_workers(farm, real_blender):
                          "-o", chroot_path(WORK / "f" / "frame_"), "-f", "2", expect_rc=2)
     assert "Unbound is not enabled on this worker" in out, out[-4000:]
     assert not (WORK / "f").exists()
+
+    real_worker(farm, "g", "--addons", MODULE, chroot_path(WORK / "scene.blend"),
+                "-o", chroot_path(WORK / "g" / "frame_"), "-f", "2", scene=False)
+    assert_same_pixels(WORK / "g" / "frame_0002.exr", WORK / "a" / "frame_0002.exr")
+
+    home = WORK / "home_h"
+    home.mkdir()
+    save_preferences = ("import bpy, addon_utils; addon_utils.enable('%s', default_set=True); "
+                        "bpy.ops.wm.save_userpref()" % MODULE)
+    rc, out = blender_gui("run", "env", "HOME=" + chroot_path(home),
+                          "BLENDER_SYSTEM_EXTENSIONS=" + chroot_path(farm["system_dir"]),
+                          "blender", "-b", "--python-exit-code", "2", "--python-expr", save_preferences)
+    assert rc == 0 and list(home.glob(".config/blender/*/config/userpref.blend")), out[-4000:]
+    real_worker(farm, "h", "-o", chroot_path(WORK / "h" / "frame_"), "-f", "2")
+    assert_same_pixels(WORK / "h" / "frame_0002.exr", WORK / "a" / "frame_0002.exr")
     # Debian's Blender runs Python with bytecode writing on: on a share it can write to (here, as
     # root) it adds __pycache__/*.cpython-313.pyc beside the add-on; nothing else changed. (bpy 4.2
     # from PyPI wrote none; a read-only share, as docs/farm.md advises, gets none.)

@@ -23,11 +23,14 @@ def passes_reach_compositor_and_exr(S, mod):
     from bl_ext.user_default.unbound import export
     dg = bpy.context.evaluated_depsgraph_get()
 
-    class Cam:  # the camera description needs only these two engine methods
+    class Cam:  # the camera description needs only these engine methods
         camera_override = None
 
         def camera_model_matrix(self, ob, use_spherical_stereo=False):
             return ob.matrix_world
+
+        def camera_shift_x(self, ob, use_spherical_stereo=False):
+            return ob.data.shift_x
 
     cam = export.camera_description(Cam(), dg, 80, 60)
     bufs = {n: np.empty((60, 80, c), np.float32) for n, c in unbound_core.PASS_CHANNELS.items()}

@@ -37,3 +37,38 @@ def render_range(S, mod, prefix, first, last, threads, tile):
     scene.render.filepath = os.path.join(os.environ["UNBOUND_TEST_TMP"], prefix)
     bpy.ops.render.render(animation=True)
     S.report(stats=dict(mod.engine.LAST_STATS))
+
+
+def save_keyframed_scene(S, mod, path):
+    """keyframed_scene saved at frame 1, as an artist leaves it: mu keyed at frames 1 and 4, the
+    object's own value that of the last key set (frame 4's), and the current frame 1."""
+    scene = keyframed_scene(S)
+    scene.frame_start, scene.frame_end = 1, 4
+    assert scene.frame_current == 1
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    S.report(saved=path)
+
+
+def render_saved(S, mod, path, order, first, last, prefix):
+    """Frames first..last of the .blend at `path` as an animation render, files prefix####.exr.
+    order "before": the add-on is registered before the file loads (as `blender -b --addons
+    MODULE FILE` or a worker whose preferences enable it: bpy_main.py enabled it at start);
+    "after": the file loads first, then the add-on is enabled (`blender -b FILE --addons MODULE`)."""
+    import sys
+    import addon_utils
+    if order == "after":
+        addon_utils.disable(S.MODULE, default_set=False)
+        assert not hasattr(bpy.types.Object, "unbound")
+        bpy.ops.wm.open_mainfile(filepath=path)
+        addon_utils.enable(S.MODULE, default_set=False, persistent=True)
+        mod = sys.modules[S.MODULE]
+    else:
+        assert order == "before", order
+        bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    assert scene.render.engine == "UNBOUND", scene.render.engine
+    assert scene.frame_current == 1, scene.frame_current
+    scene.frame_start, scene.frame_end = first, last
+    scene.render.filepath = os.path.join(os.environ["UNBOUND_TEST_TMP"], prefix)
+    bpy.ops.render.render(animation=True)
+    S.report(stats=dict(mod.engine.LAST_STATS))

@@ -1,0 +1,63 @@
+"""Issue 16 through Blender (bpy 4.2): any failure inside the engine ends as an error report with no
+file written; the memory pre-flight refuses a render that cannot fit, with the figure and what to
+turn off; passes toggled during an animation; stereo 3D renders every eye; Set Up Compositing keeps
+the user's nodes."""
+import pytest
+
+
+def test_any_failure_is_a_report_and_writes_no_file(run_bpy):
+    r = run_bpy("reliability.failures_write_no_file")
+    o = r["outcomes"]
+    assert o["ok"] == ["ok", True], o
+    assert o["key"][1] is False and "internal error (KeyError" in o["key"][0], o
+    assert o["runtime"][1] is False and "internal error (RuntimeError: bug)" in o["runtime"][0], o
+    assert o["memory"] == ["Error: Unbound: out of memory: lower the resolution or turn off passes", False], o
+
+
+@pytest.mark.parametrize("how", ["env", "rlimit"])
+def test_memory_preflight_refuses_with_the_figure(run_bpy, how):
+    if how == "env":
+        r = run_bpy("reliability.memory_preflight", env={"UNBOUND_MEMORY_LIMIT": str(8e9)})
+    else:
+        r = run_bpy("reliability.memory_preflight", args={"limit_gb": 3.0})
+    message, written = r["big"]
+    assert not written, r
+    assert "this render needs about 1580.5 GB of memory (65536 x 65536 pixels at 368 bytes each, 14 passes)" \
+        in message, message
+    assert "turn off passes (Normal, Position, Diffuse" in message, message
+    assert r["small"] == ["ok", True], r
+    # All passes: about 350 bytes per pixel (issue 16's figure); 1920 x 1080: about 0.76 GB.
+    assert r["per_pixel"] == 368 and r["needed"] == 368 * 1920 * 1080
+    assert "Traceback" not in r["_output"]
+
+
+def test_passes_toggled_during_an_animation(run_bpy):
+    r = run_bpy("reliability.passes_toggled_during_animation")
+    assert r["error"] is None, r["error"]
+    assert len(r["frames"]) == 4, r
+    # The result of a frame holds the passes registered when it was made (before the handler ran for
+    # that frame): whichever they are, each written layer holds its rendered values.
+    for name, layers in r["frames"].items():
+        assert all(layers.values()), (name, layers)
+    assert sum(len(layers) for layers in r["frames"].values()) >= 3, r
+    assert "KeyError" not in r["_output"] and "Traceback" not in r["_output"]
+
+
+@pytest.mark.parametrize("mode", ["PARALLEL", "OFFAXIS"])
+def test_stereo_renders_each_eye_like_a_mono_render(run_bpy, mode):
+    r = run_bpy("reliability.stereo_views_equal_mono_renders", args={"mode": mode})
+    assert r["eyes_differ"], r
+    for view in ("left", "right"):
+        v = r[view]
+        assert v["coverage"] > 0.1 and v["max_diff"] is not None, r
+        assert v["differing"] < 0.01, r  # at most a silhouette pixel from float32 eye matrices
+    print(r)
+
+
+def test_setup_compositing_keeps_the_users_nodes(run_bpy):
+    r = run_bpy("reliability.setup_compositing_keeps_user_nodes")
+    assert {"My Blur", "My Colour"} <= set(r["names"]), r
+    assert "My Colour>My Blur" in r["links"], r
+    ours = [n for n in r["names"] if n.startswith("Unbound ")]
+    assert len(ours) == len(set(ours)) and "Unbound Pass Files" in ours and "Unbound Render Layers" in ours, r
+    assert len(r["files"]) == 1 and r["files"][0].endswith(".exr"), r
