@@ -165,7 +165,8 @@ OBJECT_KEYS = ("kind", "mu", "theta", "max_iterations", "bailout", "threshold_mo
                "step_factor", "max_step", "max_steps", "bisection_steps", "color", "normal_method", "normal_alpha",
                "normal_delta", "reflectivity", "color_mode", "ramp_scale", "ramp_offset")
 KIND_KEYS = {'JULIA_STACK': ("stack_height",), 'CUBIC_LOCUS': ("cubic_component", "extent"),
-             'IFS': ("ifs_depth",)}
+             'IFS': ("ifs_depth",), 'MANDELBULB': ("power", "julia_mode", "julia_c"),
+             'MANDELBOX': ("box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c")}
 
 # The most points of a c-path and of a colour ramp the core takes (its PARAMETERS).
 PATH_POINTS = 256
@@ -207,8 +208,9 @@ def slice_frame(offset, rotation):
     toward the k axis by rotation (angles in the 1-k, i-k and j-k planes, applied in that order).
     Returns (basis 4x3 as rows, origin 4)."""
     frame = [[1.0 if r == c else 0.0 for c in range(4)] for r in range(4)]  # columns: 1, i, j, k
+    same_bits = utils.native().same_bits  # the core's sin and cos: the same slice on every platform
     for axis, angle in enumerate(rotation):
-        c, s = math.cos(angle), math.sin(angle)
+        c, s = same_bits.cos(angle), same_bits.sin(angle)
         for r in range(4):
             a, k = frame[r][axis], frame[r][3]
             frame[r][axis], frame[r][3] = c * a - s * k, s * a + c * k
@@ -344,7 +346,7 @@ def light_description(light, matrix):
     axis.normalize()
     out = dict(position=tuple(matrix.translation), direction=tuple(axis), cast_shadow=bool(light.use_shadow))
     if light.type == 'SUN':
-        out.update(type="sun", color=color, radius=math.tan(0.5 * min(light.angle, math.pi * 0.999)))
+        out.update(type="sun", color=color, radius=utils.native().same_bits.tan(0.5 * min(light.angle, math.pi * 0.999)))
     elif light.type in {'POINT', 'SPOT'}:
         out.update(type=light.type.lower(), color=[c / (4.0 * math.pi) for c in color],
                    radius=light.shadow_soft_size, soft_falloff=bool(getattr(light, "use_soft_falloff", False)))

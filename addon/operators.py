@@ -465,6 +465,10 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
             set_ifs_maps(props, 'SIERPINSKI')
         elif self.kind in {'QUATERNION_MANDELBROT', 'CUBIC_LOCUS'}:
             props.max_iterations = 24
+        elif self.kind == 'MANDELBOX':
+            # The set scales with the fold limit and both radii together: at scale 2 its cube spans
+            # +-6 fold limits, so 1/6 makes it +-1, the other kinds' size.
+            props.box_fold, props.min_radius, props.fixed_radius = 1.0 / 6.0, 1.0 / 12.0, 1.0 / 6.0
         ob.empty_display_size = display_radius(ob) or 2.0
         if self.use_cursor:
             self.location = context.scene.cursor.location

@@ -23,6 +23,10 @@ FRACTAL_KINDS = [
      "stay bounded, a 3-D slice of 4-D (section 5.2; empirical estimate, marched with care)", 3),
     ('IFS', "Iterated Function System", "Attractor of 3-D affine maps (section 5.3; exact bound from "
      "bounding spheres through the map hierarchy)", 4),
+    ('MANDELBULB', "Mandelbulb", "White and Nylander's triplex power z^n + c, Mandelbrot or Julia mode "
+     "(analytic running-derivative estimate; empirical, marched with care)", 5),
+    ('MANDELBOX', "Mandelbox", "Lowe's box fold, sphere fold and scale, Mandelbrot or Julia mode "
+     "(running-scale estimate; empirical, marched with care)", 6),
 ]
 EXACT_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT', 'IFS'}
 SLICED_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT', 'CUBIC_LOCUS'}
@@ -186,6 +190,22 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
                                 options=set())
     ifs_depth: IntProperty(name="Depth", description="Levels of the map hierarchy; the attractor is drawn as "
                            "the balls of the deepest level", default=6, min=0, max=16, soft_max=10)
+    julia_mode: BoolProperty(name="Julia Mode", description="Mandelbulb, Mandelbox: c is the constant Julia C "
+                             "(else c is the point itself: the Mandelbrot form)", default=False)
+    julia_c: FloatVectorProperty(name="Julia C", description="Mandelbulb, Mandelbox: the constant c of Julia mode",
+                                 size=3, subtype='XYZ', default=(0.0, 0.0, 0.0), min=-1000.0, max=1000.0,
+                                 soft_min=-2.0, soft_max=2.0, step=MU_STEP, precision=4)
+    power: FloatProperty(name="Power", description="Mandelbulb: triplex power n of z^n + c", default=8.0, min=2.0,
+                         max=32.0, soft_max=16.0)
+    box_scale: FloatProperty(name="Scale", description="Mandelbox: scale s of z <- s fold(z) + c (|s| > 1)",
+                             default=2.0, min=-10.0, max=10.0, soft_min=-3.0, soft_max=3.0)
+    box_fold: FloatProperty(name="Fold Limit", description="Mandelbox: coordinates beyond +-limit are reflected "
+                            "back (box fold)", default=1.0, min=1e-3, max=100.0, soft_max=2.0)
+    min_radius: FloatProperty(name="Min Radius", description="Mandelbox: sphere fold minimum radius (a linear "
+                              "scale inside it)", default=0.5, min=1e-3, max=100.0, soft_max=2.0)
+    fixed_radius: FloatProperty(name="Fixed Radius", description="Mandelbox: sphere fold fixed radius (inversion "
+                                "between the radii); not below Min Radius", default=1.0, min=1e-3, max=100.0,
+                                soft_max=2.0)
     max_iterations: IntProperty(name="Iterations", description="Maximum iterations of z^2 + mu per point",
                                 default=16, min=1, max=10000, soft_max=200)
     bailout: FloatProperty(name="Bailout", description="Escape radius; never below the set's bounding radius",

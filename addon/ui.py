@@ -75,6 +75,15 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
                 layout.column().prop(m, "rotation")
                 layout.column().prop(m, "scale")
             layout.prop(props, "ifs_depth")
+        elif props.kind in {'MANDELBULB', 'MANDELBOX'}:
+            if props.kind == 'MANDELBULB':
+                layout.prop(props, "power")
+            else:
+                for name in ("box_scale", "box_fold", "min_radius", "fixed_radius"):
+                    layout.prop(props, name)
+            layout.prop(props, "julia_mode")
+            if props.julia_mode:
+                layout.column().prop(props, "julia_c")
         if props.kind in properties.SLICED_KINDS:
             layout.prop(props, "theta")
         layout.prop(props, "color")

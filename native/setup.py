@@ -3,15 +3,19 @@
 Flags: -O3 with IEEE semantics kept (-ffp-contract=off: the compiler must not fuse a*b+c on
 its own, because the AVX2 and portable kernels must round identically; they fuse explicitly).
 No -march=native: the AVX2 kernel gets its ISA from a pragma and is chosen at run time."""
+import pathlib
 import sys
 
 from setuptools import Extension, setup
 
 if sys.platform == "win32":
-    # render.c uses pthreads and clock_gettime, the kernels GCC/Clang's __atomic builtins.
-    sys.exit("unbound_core builds with GCC or Clang on POSIX systems only (Linux, macOS)")
+    # The core needs GCC or Clang (port.h: __atomic builtins, target pragmas), not MSVC: the
+    # Windows wheels are cross-built with zig cc (tools/cross_build.py, `make dist`).
+    sys.exit("unbound_core: build the Windows wheels with `make dist` (tools/cross_build.py, zig cc); "
+             "setup.py builds with GCC or Clang on Linux and macOS")
 
-sources = ["camera.c", "scene.c", "ifs.c", "kernel_avx2.c", "kernel_portable.c", "render.c", "params.c", "module.c"]
+# Every C file in src/ (tools/cross_build.py compiles the same set for the other platforms).
+sources = sorted(p.name for p in pathlib.Path(__file__).resolve().parent.joinpath("src").glob("*.c"))
 compile_args = ["-O3", "-std=c11", "-D_GNU_SOURCE", "-ffp-contract=off", "-fno-math-errno",
                 "-fvisibility=hidden", "-Wall", "-Wno-unused-function"]
 libraries = ["m", "pthread"]

@@ -30,7 +30,7 @@ BASE = ROOT / "build" / "foreign"
 MIRROR = os.environ.get("DEBIAN_MIRROR", "http://deb.debian.org/debian")
 # Pure-Python test tools plus numpy, pinned: the same versions on every platform.
 TEST_WHEELS = ["pytest==8.3.5", "pluggy==1.6.0", "iniconfig==2.1.0", "packaging==25.0", "colorama==0.4.6",
-               "numpy==1.26.4"]
+               "numpy==1.26.4", "mpmath==1.3.0"]
 PIP_PLATFORM = {"windows-x64": "win_amd64", "linux-arm64": "manylinux2014_aarch64"}
 DEBIAN_PACKAGES = {"windows-x64": ["wine64", "wine"], "linux-arm64": ["qemu-user-static", "debootstrap"]}
 NEEDED_COMMANDS = {"windows-x64": ["wine"], "linux-arm64": ["qemu-aarch64-static", "debootstrap"]}
@@ -56,7 +56,7 @@ def apt_install(platform):
 def site_packages(platform, home):
     site = home / "site"
     stamp = site / ".complete"
-    if stamp.exists():
+    if stamp.exists() and stamp.read_text() == "\n".join(TEST_WHEELS):
         return site
     shutil.rmtree(site, ignore_errors=True)
     wheels = home / "wheels"
@@ -66,7 +66,7 @@ def site_packages(platform, home):
     for wheel in sorted(wheels.glob("*.whl")):
         with zipfile.ZipFile(wheel) as z:
             z.extractall(site)
-    stamp.touch()
+    stamp.write_text("\n".join(TEST_WHEELS))
     return site
 
 

@@ -5,6 +5,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "ubmath.h" /* sin, cos: the same bits on every platform */
+
 static int invert4(const double m[4][4], double out[4][4])
 {
     double a[4][8];
@@ -138,16 +140,16 @@ static void projection_ray(const ub_camera *cam, double px, double py, double or
 
 
 /* The elementary functions of the panoramic mappings, one small function each: what reaches
- * pixels must not depend on the platform's libm, so these are where ubmath.h's own functions
- * (ub_sin, ub_cos) go once it is on main. Every other step below is + - * / and sqrt. */
+ * pixels must not depend on the platform's libm, so they are ubmath.h's (the same bits on every
+ * platform). Every other step below is + - * / and sqrt. */
 static double pano_sin(double x)
 {
-    return sin(x);
+    return ub_sin(x);
 }
 
 static double pano_cos(double x)
 {
-    return cos(x);
+    return ub_cos(x);
 }
 
 /* A panoramic camera's direction in Blender's camera space (x right, y up, looking down -z) at

@@ -344,6 +344,8 @@ static inline void de_ifs(const ub_de_params *p, vf x, vf y, vf z, const int wan
         ex->normal[0] = ex->normal[1] = ex->normal[2] = v_set1(0.0f);
 }
 
+#include "formulas.h"
+
 /* The distance estimate of the object's kind, with the extras `want` asks for. */
 static inline void de_ext(const ub_de_params *p, vf a, vf b, vf c, vf d, const int want, vf *dist,
                                  vf *iters, ub_de_extra *x)
@@ -360,6 +362,12 @@ static inline void de_ext(const ub_de_params *p, vf a, vf b, vf c, vf d, const i
         break;
     case UB_KIND_IFS:
         de_ifs(p, a, b, c, want, dist, iters, x);
+        break;
+    case UB_KIND_MANDELBULB:
+        de_mandelbulb(p, a, b, c, want, dist, iters, x);
+        break;
+    case UB_KIND_MANDELBOX:
+        de_mandelbox(p, a, b, c, want, dist, iters, x);
         break;
     default:
         de_quaternion(p, 0, a, b, c, d, want, dist, iters, x);
@@ -430,7 +438,7 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, const vf q
     int quaternion = o->kind == UB_KIND_QUATERNION_JULIA || o->kind == UB_KIND_QUATERNION_MANDELBROT;
     /* Z-buffer normals come from the hit buffer; here (neighbours unknown) the distance gradient. */
     if (method == UB_NORMAL_ZBUFFER || (method == UB_NORMAL_ANALYTIC && !quaternion)
-        || (method == UB_NORMAL_GRADIENT_POTENTIAL && o->kind == UB_KIND_IFS))
+        || (method == UB_NORMAL_GRADIENT_POTENTIAL && (o->kind == UB_KIND_IFS || o->kind == UB_KIND_MANDELBOX)))
         method = UB_NORMAL_GRADIENT_DISTANCE;
     if (method != UB_NORMAL_ANALYTIC) {
         const int potential = method == UB_NORMAL_GRADIENT_POTENTIAL;

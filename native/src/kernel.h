@@ -12,6 +12,7 @@
 #endif
 
 #include "scene.h"
+#include "ubmath.h" /* exp, pow, sin: the same bits on every platform */
 
 #include <float.h>
 #include <math.h>
@@ -164,7 +165,7 @@ static int zbuffer_normal(const ub_scene *sc, const double off[2], int bx, int b
 /* Gradient step of eq. 15, h = alpha Gamma(t), Gamma(t) = t^delta (Table 1), world units. */
 static inline double gradient_step(const ub_object *o, double t)
 {
-    return o->normal_alpha * pow(t > 0.0 ? t : 0.0, o->normal_delta);
+    return o->normal_alpha * ub_pow(t > 0.0 ? t : 0.0, o->normal_delta);
 }
 
 /* Per-lane state of one bounce of the shading phase. */
@@ -525,7 +526,7 @@ static int add_surface_light(const ub_shading *sh, int bounce, int hit_lanes, co
             continue;
         /* Without a further bounce the surface shows its own colour in full. */
         float r = last ? 0.0f : sf->reflectivity[l];
-        float f = sh->fog_density > 0.0 ? (float)(1.0 - exp(-sh->fog_density * tr->t[l])) : 0.0f;
+        float f = sh->fog_density > 0.0 ? (float)(1.0 - ub_exp(-sh->fog_density * tr->t[l])) : 0.0f;
         float local[3], dif[3], amb[3];
         for (int i = 0; i < 3; i++) {
             dif[i] = (1.0f - r) * sf->albedo[i][l] * direct[i][l];
@@ -579,7 +580,7 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
         size_t idx = (size_t)y * (size_t)film->w + (size_t)(x + l);
         int hit = ps->primary_obj[l] != UB_HIT_NONE;
         int unseen = (ps->unseen >> l) & 1;
-        float g = sh->glow_strength > 0.0f ? sh->glow_strength * (1.0f - expf(-ps->primary_steps[l] * glow_scale))
+        float g = sh->glow_strength > 0.0f ? sh->glow_strength * (1.0f - ub_expf(-ps->primary_steps[l] * glow_scale))
                                            : 0.0f;
         float glow[3] = {g * sh->glow_color[0], g * sh->glow_color[1], g * sh->glow_color[2]};
         /* Outside a panoramic camera's lens Cycles traces nothing and shows opaque black (with a

@@ -20,6 +20,7 @@
 #include "params.h"
 #include "render.h"
 #include "scene.h"
+#include "ubmath.h"
 
 #define ERRBUF 256
 
@@ -952,6 +953,86 @@ static PyObject *py_cpu_info(PyObject *self, PyObject *noargs)
     return Py_BuildValue("{s:i,s:O}", "cpus", ub_cpu_count(), "avx2_fma", ub_cpu_has_avx2_fma() ? Py_True : Py_False);
 }
 
+/* _math_probe(name, values) -> list of floats: the core's own elementary functions (ubmath.h)
+ * on each value (a float, or a tuple of 2 for pow and hypot, of 3 for fmaf), for the tests that
+ * check their accuracy and their bits on every platform. Private: not part of the API. Float
+ * functions (expf, fmaf) take values that are floats exactly. */
+static int probe_arg(PyObject *item, int index, int single, double *out)
+{
+    PyObject *v = index < 0 ? (Py_INCREF(item), item) : PySequence_GetItem(item, index);
+    if (!v)
+        return -1;
+    *out = PyFloat_AsDouble(v);
+    Py_DECREF(v);
+    if (*out == -1.0 && PyErr_Occurred())
+        return -1;
+    if (single && *out == *out && (double)(float)*out != *out) {
+        PyErr_SetString(PyExc_ValueError, "_math_probe: a float function's argument is not a float32");
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *py_math_probe(PyObject *self, PyObject *args)
+{
+    static const struct {
+        const char *name;
+        int arity, single;
+    } functions[] = {{"exp", 1, 0}, {"log", 1, 0}, {"sin", 1, 0}, {"cos", 1, 0}, {"acos", 1, 0},
+                     {"expf", 1, 1}, {"pow", 2, 0}, {"hypot", 2, 0}, {"fmaf", 3, 1}};
+    const char *name;
+    PyObject *values;
+    if (!PyArg_ParseTuple(args, "sO:_math_probe", &name, &values))
+        return NULL;
+    int f = -1;
+    for (int i = 0; i < (int)(sizeof functions / sizeof functions[0]); i++)
+        if (!strcmp(name, functions[i].name))
+            f = i;
+    if (f < 0) {
+        PyErr_Format(PyExc_ValueError, "_math_probe: unknown function '%s'", name);
+        return NULL;
+    }
+    PyObject *seq = PySequence_Tuple(values); /* a copy: see the top of this file */
+    if (!seq)
+        return NULL;
+    Py_ssize_t n = PyTuple_Size(seq);
+    PyObject *result = PyList_New(n);
+    for (Py_ssize_t i = 0; result && i < n; i++) {
+        PyObject *item = PyTuple_GetItem(seq, i); /* borrowed, held by seq */
+        int arity = functions[f].arity;
+        double a[3] = {0, 0, 0};
+        if (arity > 1 && (!PySequence_Check(item) || PySequence_Size(item) != arity)) {
+            PyErr_Format(PyExc_TypeError, "_math_probe: %s takes tuples of %d floats", name, arity);
+            Py_CLEAR(result);
+            break;
+        }
+        for (int k = 0; k < arity; k++)
+            if (probe_arg(item, arity > 1 ? k : -1, functions[f].single, &a[k]) < 0) {
+                Py_CLEAR(result);
+                break;
+            }
+        if (!result)
+            break;
+        double y;
+        switch (f) {
+        case 0: y = ub_exp(a[0]); break;
+        case 1: y = ub_log(a[0]); break;
+        case 2: y = ub_sin(a[0]); break;
+        case 3: y = ub_cos(a[0]); break;
+        case 4: y = ub_acos(a[0]); break;
+        case 5: y = ub_expf((float)a[0]); break;
+        case 6: y = ub_pow(a[0], a[1]); break;
+        case 7: y = ub_hypot(a[0], a[1]); break;
+        default: y = ub_fmaf((float)a[0], (float)a[1], (float)a[2]); break;
+        }
+        PyObject *value = PyFloat_FromDouble(y);
+        if (!value || PyList_SetItem(result, i, value) < 0)
+            Py_CLEAR(result);
+    }
+    Py_DECREF(seq);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"render", (PyCFunction)(void (*)(void))py_render, METH_VARARGS | METH_KEYWORDS,
      "render(camera, objects, passes, *, window=None, threads=0, tile_size=32, simd='auto', progress=None, "
@@ -976,6 +1057,9 @@ static PyMethodDef methods[] = {
      "describe(object) -> derived values: bounding ball (object space, and its radius in the world), effective "
      "bailout, singular values of the placement, slice after the theta rotation"},
     {"cpu_info", py_cpu_info, METH_NOARGS, "cpu_info() -> {'cpus': n, 'avx2_fma': bool}"},
+    {"_math_probe", py_math_probe, METH_VARARGS,
+     "_math_probe(name, values) -> [float]: private test hook of the core's own exp, log, sin, cos, acos, expf, "
+     "pow, hypot (pairs), fmaf (triples)"},
     {NULL, NULL, 0, NULL},
 };
 

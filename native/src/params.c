@@ -28,7 +28,7 @@
 
 
 const char *const ub_kind_names[] = {"quaternion_julia", "quaternion_mandelbrot", "julia_stack", "cubic_locus",
-                                     "ifs", NULL};
+                                     "ifs", "mandelbulb", "mandelbox", NULL};
 const char *const ub_isa_names[] = {"auto", "avx2", "portable", NULL};
 static const char *const threshold_modes[] = {"pixel", "fixed", NULL};
 static const char *const normal_methods[] = {"gradient_distance", "gradient_potential", "zbuffer", "analytic",
@@ -94,6 +94,13 @@ static const ub_param object_rows[] = {
     LIST(OBJ, maps, 3, 4, -1e6, 1e6, 1, UB_MAX_IFS_MAPS, default_maps, 4, 0,
          "IFS: affine maps x -> A x + t as 3x4 rows [A | t], each contracting"),
     INTEGER(OBJ, ifs_depth, 0, UB_MAX_IFS_DEPTH, D(6), "IFS: levels of the map hierarchy"),
+    FLAG(OBJ, julia_mode, NULL, "Mandelbulb, Mandelbox: Julia mode, c = julia_c (else c = the point)"),
+    VECTOR(OBJ, julia_c, 3, -1e3, 1e3, NULL, 0, "Mandelbulb, Mandelbox: the constant c of Julia mode"),
+    REAL(OBJ, power, 2.0, 32.0, D(8.0), "Mandelbulb: triplex power n of z^n + c"),
+    REAL(OBJ, box_scale, -10.0, 10.0, D(2.0), "Mandelbox: scale s of z <- s fold(z) + c, |s| > 1"),
+    REAL(OBJ, box_fold, 1e-3, 100.0, D(1.0), "Mandelbox: box fold limit L (coordinates beyond +-L are reflected)"),
+    REAL(OBJ, min_radius, 1e-3, 100.0, D(0.5), "Mandelbox: sphere fold minimum radius (linear scale inside)"),
+    REAL(OBJ, fixed_radius, 1e-3, 100.0, D(1.0), "Mandelbox: sphere fold fixed radius (inversion inside), >= min_radius"),
 };
 #undef OBJ
 const ub_param_section ub_object_section = {"object", ROWS(object_rows), sizeof(ub_object_input)};

@@ -88,6 +88,10 @@ typedef struct {
     int maps_count;
     double maps[UB_MAX_IFS_MAPS][3][4];
     int ifs_depth;
+    int julia_mode;
+    double julia_c[3];
+    double power;
+    double box_scale, box_fold, min_radius, fixed_radius;
 } ub_object_input;
 
 typedef struct {

@@ -2,6 +2,7 @@
 #include "params.h"
 #include "quat.h"
 #include "scene.h"
+#include "ubmath.h" /* acos, cos, sin, hypot: the same bits on every platform */
 
 #include <float.h>
 #include <math.h>
@@ -59,10 +60,10 @@ void ub_sym3_eigen_range(const double a[3][3], double *lmin, double *lmax)
         for (int j = 0; j < 3; j++)
             b[i][j] = (a[i][j] - (i == j ? q : 0.0)) / p;
     double r = ub_det3(b) / 2.0;
-    double phi = r <= -1.0 ? M_PI / 3.0 : (r >= 1.0 ? 0.0 : acos(r) / 3.0);
+    double phi = r <= -1.0 ? M_PI / 3.0 : (r >= 1.0 ? 0.0 : ub_acos(r) / 3.0);
     /* The three roots are q + 2p cos(phi + 2k pi/3); k = 0 gives the largest, k = 1 the smallest. */
-    *lmax = q + 2.0 * p * cos(phi);
-    *lmin = q + 2.0 * p * cos(phi + 2.0 * M_PI / 3.0);
+    *lmax = q + 2.0 * p * ub_cos(phi);
+    *lmin = q + 2.0 * p * ub_cos(phi + 2.0 * M_PI / 3.0);
 }
 
 /* Smallest and largest singular value of a 3x3 matrix by one-sided Jacobi (Hestenes) in double:
@@ -130,10 +131,86 @@ static void slice_ball(ub_object *obj, double radius4)
     obj->bound_radius = r2 >= 0.0 ? sqrt(r2) : -1.0;
 }
 
+/* x^m for a whole number m >= 0, by multiplications only (no libm: bounds reach pixels). */
+static double int_power(double x, int m)
+{
+    double r = 1.0;
+    for (int i = 0; i < m; i++)
+        r *= x;
+    return r;
+}
+
+/* The Mandelbulb's ball and escape radius. |z^n| = |z|^n in the triplex algebra, and with
+ * m = floor(n) >= 2, |z|^n >= |z|^m for |z| >= 1. Mandelbrot mode: with R^(m-1) >= 2 and
+ * |c| <= R, |z| > R gives |f(z)| >= |z|^n - |c| > |z| (|z|^(n-1) - 1) > |z|, growing: the orbit
+ * escapes, so the set lies in |c| <= R (z0 = c) and R is an escape radius. Julia mode: R >= 1
+ * the root of R^m - R - |c| = 0; |z| > R gives |f(z)| - |z| >= |z|^m - |z| - |c| > 0, growing.
+ * Bisection in double, taking the upper end. The escape radius used is also capped at
+ * 2^floor(56/n), so that r^n stays far inside float32's range (never below R). */
+static void mandelbulb_bound(ub_object *obj)
+{
+    int m = (int)floor(obj->power);
+    double c = obj->julia_mode ? sqrt(obj->julia_c[0] * obj->julia_c[0] + obj->julia_c[1] * obj->julia_c[1]
+                                      + obj->julia_c[2] * obj->julia_c[2])
+                               : 0.0;
+    double lo = 1.0, hi = 2.0 + c;
+    for (int i = 0; i < 200; i++) {
+        double mid = 0.5 * (lo + hi);
+        double g = obj->julia_mode ? int_power(mid, m) - mid - c : int_power(mid, m - 1) - 2.0;
+        if (g < 0.0)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+    obj->bound_radius = hi;
+    double cap = ldexp(1.0, (int)floor(56.0 / obj->power));
+    obj->bailout = fmax(fmin(obj->bailout, cap), hi);
+}
+
+/* The Mandelbox's ball and escape radius, from the sup norm. The box fold moves a coordinate
+ * by at most 2L toward 0 (|fold(x)| >= |x| - 2L) and the sphere fold only scales up (by
+ * k >= 1, as min_radius <= fixed_radius), so the largest coordinate m of z gives
+ * |f(z)|_inf >= |s| (m - 2L) - |c|_inf. Beyond m* = (2L|s| + |c|_inf) / (|s| - 1) that is
+ * > m and f(z) - m* >= |s| (m - m*): the orbit escapes. Julia mode: the set lies in the cube
+ * of half-width m* (proven). Mandelbrot mode (z0 = c): for |s| > 2, |c|_inf > 2L|s|/(|s| - 2)
+ * already exceeds m*(c), so H = 2L|s|/(|s| - 2) (proven); for 1 < |s| <= 2 no such argument
+ * holds and H = 2L(|s| + 1)/(|s| - 1), Lowe's cube for s > 1 (6 for s = 2), taken for s < -1
+ * as well: not proven here, checked by sampling (tests/native/test_formulas.py). The escape
+ * radius is sqrt(3) m* for the largest |c| the cube allows; the ball is the cube's. */
+static const char *mandelbox_bound(ub_object *obj)
+{
+    double s = fabs(obj->box_scale), L = obj->box_fold;
+    if (!(s > 1.0 + 1e-6))
+        return "a Mandelbox needs |box_scale| > 1";
+    if (obj->min_radius > obj->fixed_radius)
+        return "a Mandelbox needs min_radius <= fixed_radius";
+    double H, c;
+    if (obj->julia_mode) {
+        c = fmax(fabs(obj->julia_c[0]), fmax(fabs(obj->julia_c[1]), fabs(obj->julia_c[2])));
+        H = (2.0 * L * s + c) / (s - 1.0);
+    } else {
+        H = s > 2.0 ? 2.0 * L * s / (s - 2.0) : 2.0 * L * (s + 1.0) / (s - 1.0);
+        c = H;
+    }
+    double escape = fmax(H, (2.0 * L * s + c) / (s - 1.0));
+    obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+    obj->bound_radius = sqrt(3.0) * H;
+    obj->bailout = fmax(obj->bailout, sqrt(3.0) * escape);
+    return NULL;
+}
+
 /* The kind's bounding ball (section 3.4), escape radius and exactness. */
 static const char *prepare_kind(ub_object *obj)
 {
     switch (obj->kind) {
+    case UB_KIND_MANDELBULB:
+        mandelbulb_bound(obj);
+        obj->exact = 0;
+        return NULL;
+    case UB_KIND_MANDELBOX:
+        obj->exact = 0;
+        return mandelbox_bound(obj);
     case UB_KIND_QUATERNION_MANDELBROT:
         /* |mu| > 2 escapes, and once |z| > 2 >= |mu| the orbit escapes. */
         slice_ball(obj, 2.0);
@@ -147,8 +224,8 @@ static const char *prepare_kind(ub_object *obj)
         double c_max = 0.0;
         int last = obj->path_count - 1;
         for (int i = 0; i < obj->path_count; i++) {
-            c_max = fmax(c_max, hypot(obj->path[i][0], obj->path[i][1]));
-            obj->path_speed[i] = i < last ? hypot(obj->path[i + 1][0] - obj->path[i][0],
+            c_max = fmax(c_max, ub_hypot(obj->path[i][0], obj->path[i][1]));
+            obj->path_speed[i] = i < last ? ub_hypot(obj->path[i + 1][0] - obj->path[i][0],
                                                   obj->path[i + 1][1] - obj->path[i][1]) * last / obj->stack_height
                                           : 0.0;
         }
@@ -194,7 +271,8 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
 {
     static const double identity_basis[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
     static const double zero_origin[4] = {0, 0, 0, 0};
-    if (obj->kind == UB_KIND_JULIA_STACK || obj->kind == UB_KIND_IFS) {
+    if (obj->kind == UB_KIND_JULIA_STACK || obj->kind == UB_KIND_IFS || obj->kind == UB_KIND_MANDELBULB
+        || obj->kind == UB_KIND_MANDELBOX) {
         /* Three-dimensional kinds: the "slice" is object space itself. */
         slice_basis = identity_basis;
         slice_origin = zero_origin;
@@ -217,8 +295,8 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
      * g(K_mu) and its distance estimate at z is the plain one at g^-1(z). We therefore fold
      * g^-1 (left multiplication by e^{-i theta}) into the slice map once, and the kernels
      * iterate plain z^2 + mu. theta is reduced modulo 2 pi so that 2 pi gives 0's exact bits. */
-    double th = fmod(theta, 2.0 * M_PI);
-    double g_inv[4] = {cos(th), -sin(th), 0.0, 0.0};
+    double th = fmod(theta, 2.0 * M_PI); /* exact (C's fmod has no rounding) */
+    double g_inv[4] = {ub_cos(th), -ub_sin(th), 0.0, 0.0};
     if (th == 0.0) { g_inv[0] = 1.0; g_inv[1] = 0.0; }
     ub_quat_mul(g_inv, slice_origin, obj->slice_origin);
     for (int c = 0; c < 3; c++) {
@@ -308,6 +386,13 @@ const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
     obj->map_count = in->maps_count;
     memcpy(obj->maps, in->maps, sizeof obj->maps);
     obj->ifs_depth = in->ifs_depth;
+    obj->julia_mode = in->julia_mode;
+    memcpy(obj->julia_c, in->julia_c, sizeof obj->julia_c);
+    obj->power = in->power;
+    obj->box_scale = in->box_scale;
+    obj->box_fold = in->box_fold;
+    obj->min_radius = in->min_radius;
+    obj->fixed_radius = in->fixed_radius;
     return ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
 }
 
@@ -328,7 +413,7 @@ const char *ub_light_from_input(ub_light *L, const ub_light_input *in)
         L->direction[i] = dir[i] / len;
     /* Blender's spot: spot_size is the full cone angle, spot_blend the fraction of the cone's
      * cosine range over which it fades in. */
-    L->spot_cos_outer = cos(in->spot_size / 2);
+    L->spot_cos_outer = ub_cos(in->spot_size / 2);
     L->spot_cos_inner = L->spot_cos_outer + (1.0 - L->spot_cos_outer) * in->spot_blend;
     return NULL;
 }

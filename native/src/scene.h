@@ -74,6 +74,8 @@ typedef enum {
     UB_KIND_JULIA_STACK,           /* complex Julia sets of z^2 + c(u) stacked along z */
     UB_KIND_CUBIC_LOCUS,           /* z^3 - 3a^2 z + b over the 4-D (a, b) space */
     UB_KIND_IFS,                   /* attractor of 3-D affine maps */
+    UB_KIND_MANDELBULB,            /* triplex z^n + c (issue 22; empirical) */
+    UB_KIND_MANDELBOX,             /* box fold, sphere fold, scale (issue 22; empirical) */
     UB_KIND_COUNT
 } ub_fractal_kind;
 
@@ -156,6 +158,12 @@ typedef struct {
     double map_norm[UB_MAX_IFS_MAPS];
     double map_center[UB_MAX_IFS_MAPS][3];
     double ifs_center[3], ifs_radius;
+    /* Mandelbulb and Mandelbox (formulas.h): Julia mode (c = julia_c, else c = the point), the
+     * triplex power, and the Mandelbox's scale, fold limit and sphere-fold radii. */
+    int julia_mode;
+    double julia_c[3];
+    double power;
+    double box_scale, box_fold, min_radius, fixed_radius;
 } ub_object;
 
 typedef enum { UB_LIGHT_POINT = 0, UB_LIGHT_SUN, UB_LIGHT_SPOT, UB_LIGHT_AREA } ub_light_type;

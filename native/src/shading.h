@@ -35,7 +35,7 @@ static void ambient_occlusion(const ub_scene *sc, const ub_de_params *dps, int l
                 pts[c][l] = p[c][l] + h * n[c][l];
         float d[UB_LANES];
         v_store(d, scene_distance(sc, dps, pts));
-        float w = ldexpf(1.0f, -i);
+        float w = ldexpf(1.0f, -i); /* exact: a power of two, no rounding on any libm */
         wsum += w;
         for (int l = 0; l < UB_LANES; l++) {
             float term = 1.0f - 2.0f * d[l] / (float)h;
@@ -68,8 +68,8 @@ static void sea_normal(const ub_scene *sc, const ub_de_params *dps, const double
     }
     for (int l = 0; l < UB_LANES; l++) {
         double k = 2.0 * M_PI / sh->sea_wavelength, a = sh->sea_amplitude;
-        double dx = a * (sin(k * w[0][l]) - sin(k * w[1][l])) / (2.0 * e);
-        double dy = a * (sin(k * w[2][l]) - sin(k * w[3][l])) / (2.0 * e);
+        double dx = a * (ub_sin(k * w[0][l]) - ub_sin(k * w[1][l])) / (2.0 * e);
+        double dy = a * (ub_sin(k * w[2][l]) - ub_sin(k * w[3][l])) / (2.0 * e);
         if (!isfinite(dx) || !isfinite(dy))
             dx = dy = 0.0; /* no object: a calm sea */
         double len = sqrt(dx * dx + dy * dy + 1.0);

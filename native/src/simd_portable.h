@@ -1,12 +1,22 @@
 /* 8-lane float vectors in portable C: the bit-exact twin of simd_avx2.h for CPUs without
- * AVX2/FMA and for other architectures. fmaf() is correctly rounded by the C standard (a
- * hardware instruction on most CPUs, emulated exactly by libm otherwise), which is what keeps
- * both kernels' results identical. */
+ * AVX2/FMA and for other architectures. Both kernels' results stay identical because every
+ * fused multiply-add rounds once, as IEEE's fma: where the target has the instruction
+ * (__FP_FAST_FMAF: arm64, x86-64 built with FMA) fmaf() is that one instruction; elsewhere not
+ * libm's fmaf, which is a slow or, on mingw, not even correctly rounded emulation, but
+ * ubmath.h's exact ub_fmaf. */
 #ifndef UNBOUND_SIMD_PORTABLE_H
 #define UNBOUND_SIMD_PORTABLE_H
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+
+#include "ubmath.h"
+
+#ifdef __FP_FAST_FMAF
+#define V_FMAF(a, b, c) fmaf(a, b, c)
+#else
+#define V_FMAF(a, b, c) ub_fmaf(a, b, c)
+#endif
 
 typedef struct { float v[8]; } vf;
 typedef struct { int32_t v[8]; } vm; /* -1 = true, 0 = false */
@@ -21,8 +31,8 @@ static inline vf v_sub(vf a, vf b) { V_LOOP(i) a.v[i] = a.v[i] - b.v[i]; return 
 static inline vf v_mul(vf a, vf b) { V_LOOP(i) a.v[i] = a.v[i] * b.v[i]; return a; }
 static inline vf v_div(vf a, vf b) { V_LOOP(i) a.v[i] = a.v[i] / b.v[i]; return a; }
 static inline vf v_sqrt(vf a) { V_LOOP(i) a.v[i] = sqrtf(a.v[i]); return a; }
-static inline vf v_fma(vf a, vf b, vf c) { V_LOOP(i) a.v[i] = fmaf(a.v[i], b.v[i], c.v[i]); return a; }
-static inline vf v_fms(vf a, vf b, vf c) { V_LOOP(i) a.v[i] = fmaf(a.v[i], b.v[i], -c.v[i]); return a; }
+static inline vf v_fma(vf a, vf b, vf c) { V_LOOP(i) a.v[i] = V_FMAF(a.v[i], b.v[i], c.v[i]); return a; }
+static inline vf v_fms(vf a, vf b, vf c) { V_LOOP(i) a.v[i] = V_FMAF(a.v[i], b.v[i], -c.v[i]); return a; }
 static inline vf v_min(vf a, vf b) { V_LOOP(i) a.v[i] = a.v[i] < b.v[i] ? a.v[i] : b.v[i]; return a; }
 static inline vf v_max(vf a, vf b) { V_LOOP(i) a.v[i] = a.v[i] > b.v[i] ? a.v[i] : b.v[i]; return a; }
 static inline vm v_lt(vf a, vf b) { vm r; V_LOOP(i) r.v[i] = a.v[i] < b.v[i] ? -1 : 0; return r; }

@@ -18,6 +18,7 @@ from ._native import (  # noqa: F401
     normals,
     render,
 )
+from . import same_bits  # noqa: F401
 from .camera import look_at, orthographic, perspective  # noqa: F401
 
 __version__ = "0.1.0"

@@ -91,8 +91,10 @@ def every_core_key_is_reachable(S, mod):
     texture = bpy.data.textures.new("Ramp", 'BLEND')
     texture.use_color_ramp = True
     object_keys = set()
-    for kind in ('QUATERNION_JULIA', 'QUATERNION_MANDELBROT', 'JULIA_STACK', 'CUBIC_LOCUS', 'IFS'):
+    for kind in [item[0] for item in mod.properties.FRACTAL_KINDS]:
         bpy.ops.object.unbound_fractal_add(kind=kind)
+        if kind in ('MANDELBULB', 'MANDELBOX'):
+            bpy.context.object.unbound.julia_mode = True  # julia_c goes to the core in Julia mode too
         ob = bpy.context.object
         ob.unbound.color_mode = 'ORBIT_TRAP'
         ob.unbound.color_ramp_texture = texture

@@ -1,0 +1,232 @@
+/* The community formulas of issue 22: the Mandelbulb (White and Nylander's triplex power) and
+ * the Mandelbox (Lowe's box and sphere folds), with the vector functions they need. Included by
+ * estimators.h, compiled once per SIMD flavour.
+ *
+ * Transcendental functions are our own, built only from the interface's correctly rounded
+ * operations (add, mul, div, sqrt, fma, min, max, compare, select), so both kernels and every
+ * platform agree bit for bit; no libm. Accuracy against double-precision libm over 250000
+ * vectors (tools/formulas_accuracy.c, the portable twin):
+ *   v_atan2   Cephes' atanf polynomial after reduction to [0, tan(pi/8)]: absolute <= 2.8e-7
+ *             (about one ulp of pi)
+ *   v_sincos  Cody-Waite reduction by pi/2 in three parts, Cephes' sinf/cosf polynomials on
+ *             [-pi/4, pi/4]: absolute <= 9e-8 for |x| <= 64 (n theta for n <= 32 stays within)
+ *   v_exp2    Cephes' exp2f polynomial on [-1/2, 1/2] times an exact power of two: relative
+ *             <= 7.7e-8 (under one ulp)
+ * so r^n = exp2(n log2 r) (with v_log of estimators.h) is within about n |log r| 1e-7 relative;
+ * the whole estimate is within 2e-3 relative of float64 (tests/native/test_formulas.py; 1.2e-4
+ * measured for the power-8 bulb). */
+
+/* Round to the nearest integer (ties to even), |x| < 2^22: two exact-then-rounded adds. */
+static inline vf v_round_int(vf x)
+{
+    const vf magic = v_set1(12582912.0f); /* 1.5 * 2^23 */
+    return v_sub(v_add(x, magic), magic);
+}
+
+static inline vf v_abs(vf x)
+{
+    return v_max(x, v_sub(v_set1(0.0f), x));
+}
+
+static inline vf v_neg_if(vm m, vf x)
+{
+    return v_select(m, v_sub(v_set1(0.0f), x), x);
+}
+
+/* atan(t) for t in [0, 1]. */
+static inline vf v_atan01(vf t)
+{
+    vm big = v_gt(t, v_set1(0.41421356237f));
+    vf x = v_select(big, v_div(v_sub(t, v_set1(1.0f)), v_add(t, v_set1(1.0f))), t);
+    vf z = v_mul(x, x);
+    vf p = v_set1(8.05374449538e-2f);
+    p = v_fma(p, z, v_set1(-1.38776856032e-1f));
+    p = v_fma(p, z, v_set1(1.99777106478e-1f));
+    p = v_fma(p, z, v_set1(-3.33329491539e-1f));
+    vf y = v_fma(v_mul(p, z), x, x);
+    return v_add(y, v_select(big, v_set1(0.785398163397f), v_set1(0.0f)));
+}
+
+/* atan2(y, x) in [-pi, pi]; atan2(0, 0) = 0; y = -0 counts as positive. */
+static inline vf v_atan2(vf y, vf x)
+{
+    vf ax = v_abs(x), ay = v_abs(y);
+    vf hi = v_max(ax, ay), lo = v_min(ax, ay);
+    vm some = v_gt(hi, v_set1(0.0f));
+    vf t = v_select(some, v_div(lo, v_select(some, hi, v_set1(1.0f))), v_set1(0.0f));
+    vf a = v_atan01(t);
+    a = v_select(v_gt(ay, ax), v_sub(v_set1(1.57079632679f), a), a);
+    a = v_select(v_lt(x, v_set1(0.0f)), v_sub(v_set1(3.14159265359f), a), a);
+    return v_neg_if(v_lt(y, v_set1(0.0f)), a);
+}
+
+/* sin and cos of x, |x| <= 128 (larger arguments lose accuracy, never determinism). */
+static inline void v_sincos(vf x, vf *s, vf *c)
+{
+    vf k = v_round_int(v_mul(x, v_set1(0.636619772368f))); /* x / (pi/2) */
+    vf r = v_fma(k, v_set1(-1.5703125f), x);
+    r = v_fma(k, v_set1(-4.837512969970703125e-4f), r);
+    r = v_fma(k, v_set1(-7.54978995489188216e-8f), r);
+    vf z = v_mul(r, r);
+    vf ps = v_set1(-1.9515295891e-4f);
+    ps = v_fma(ps, z, v_set1(8.3321608736e-3f));
+    ps = v_fma(ps, z, v_set1(-1.6666654611e-1f));
+    ps = v_fma(v_mul(ps, z), r, r);
+    vf pc = v_set1(2.443315711809948e-5f);
+    pc = v_fma(pc, z, v_set1(-1.388731625493765e-3f));
+    pc = v_fma(pc, z, v_set1(4.166664568298827e-2f));
+    pc = v_fma(v_mul(pc, z), z, v_fms(v_set1(-0.5f), z, v_set1(-1.0f)));
+    /* Quadrant j = k mod 4, from the exact integer k. */
+    vf q = v_mul(k, v_set1(0.25f));
+    vf fl = v_round_int(q);
+    fl = v_select(v_gt(fl, q), v_sub(fl, v_set1(1.0f)), fl);
+    vf j = v_fms(v_set1(-4.0f), fl, v_sub(v_set1(0.0f), k)); /* k - 4 fl */
+    vm odd = m_or(m_and(v_gt(j, v_set1(0.5f)), v_lt(j, v_set1(1.5f))), v_gt(j, v_set1(2.5f)));
+    vm sin_neg = v_gt(j, v_set1(1.5f));
+    vm cos_neg = m_and(v_gt(j, v_set1(0.5f)), v_lt(j, v_set1(2.5f)));
+    *s = v_neg_if(sin_neg, v_select(odd, pc, ps));
+    *c = v_neg_if(cos_neg, v_select(odd, ps, pc));
+}
+
+/* 2^k for whole numbers k in [-126, 127]: a product of exact powers of two. */
+static inline vf v_exp2_int(vf k)
+{
+    vf ak = v_abs(k), p = v_set1(1.0f);
+    static const float weight[7] = {64.0f, 32.0f, 16.0f, 8.0f, 4.0f, 2.0f, 1.0f};
+    static const float power[7] = {1.8446744073709552e19f, 4294967296.0f, 65536.0f, 256.0f, 16.0f, 4.0f, 2.0f};
+    for (int b = 0; b < 7; b++) {
+        vm take = v_gt(ak, v_set1(weight[b] - 0.5f));
+        ak = v_select(take, v_sub(ak, v_set1(weight[b])), ak);
+        p = v_select(take, v_mul(p, v_set1(power[b])), p);
+    }
+    return v_select(v_lt(k, v_set1(0.0f)), v_div(v_set1(1.0f), p), p);
+}
+
+/* 2^x, x clamped to [-126, 126]. */
+static inline vf v_exp2(vf x)
+{
+    x = v_min(v_max(x, v_set1(-126.0f)), v_set1(126.0f));
+    vf k = v_round_int(x);
+    vf f = v_sub(x, k); /* exact, in [-1/2, 1/2] */
+    vf p = v_set1(1.535336188319500e-4f);
+    p = v_fma(p, f, v_set1(1.339887440266574e-3f));
+    p = v_fma(p, f, v_set1(9.618437357674640e-3f));
+    p = v_fma(p, f, v_set1(5.550332471162809e-2f));
+    p = v_fma(p, f, v_set1(2.402264791363012e-1f));
+    p = v_fma(p, f, v_set1(6.931472028550421e-1f));
+    p = v_fma(p, f, v_set1(1.0f));
+    return v_mul(p, v_exp2_int(k));
+}
+
+/* The Mandelbulb: z <- z^n + c in White and Nylander's triplex algebra, z = r (sin t cos p,
+ * sin t sin p, cos t) -> r^n (sin nt cos np, sin nt sin np, cos nt), t the angle from +z, p the
+ * azimuth. Mandelbrot mode: z0 = c = the point; Julia mode: z0 = the point, c fixed. The
+ * estimate is the analytic running derivative's, 0.5 log(r) r / dr with dr <- n r^(n-1) dr
+ * (+ 1 in Mandelbrot mode): the Hubbard-Douady estimate the triplex map inherits without its
+ * proof (the map is not conformal), so the kind is empirical. The potential is log r / n^k. */
+static inline void de_mandelbulb(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+                                 ub_de_extra *ex)
+{
+    const ub_object *o = p->obj;
+    const int julia = o->julia_mode;
+    const vf cx = julia ? v_set1((float)o->julia_c[0]) : x;
+    const vf cy = julia ? v_set1((float)o->julia_c[1]) : y;
+    const vf cz = julia ? v_set1((float)o->julia_c[2]) : z;
+    const vf n = v_set1((float)o->power), zero = v_set1(0.0f), one = v_set1(1.0f);
+    const vf dr_add = julia ? zero : one;
+    /* log2 r = ln(r^2) / (2 ln 2); exponents capped so |z| stays far inside float range. */
+    const vf half_log2e = v_set1(0.721347520444f), cap = v_set1(60.0f);
+    vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
+    vf dr = one, cnt = zero, trap = r2, gscale = one;
+    const vf gstep = v_set1((float)(1.0 / o->power));
+    vm active = m_from_bits(0xff);
+    for (int it = 0; it < p->max_iterations; it++) {
+        vm nonzero = v_gt(r2, zero);
+        vf r = v_sqrt(r2);
+        vf lg = v_mul(v_log(v_select(nonzero, r2, one)), half_log2e);
+        vf rn = v_select(nonzero, v_exp2(v_min(v_mul(n, lg), cap)), zero);
+        vf rn1 = v_select(nonzero, v_div(rn, v_select(nonzero, r, one)), zero);
+        vf rho = v_sqrt(v_fma(x, x, v_mul(y, y)));
+        vf st, ct, sp, cp;
+        v_sincos(v_mul(n, v_atan2(rho, z)), &st, &ct);
+        v_sincos(v_mul(n, v_atan2(y, x)), &sp, &cp);
+        vf rs = v_mul(rn, st);
+        vf nx = v_fma(rs, cp, cx);
+        vf ny = v_fma(rs, sp, cy);
+        vf nz = v_fma(rn, ct, cz);
+        dr = v_select(active, v_fma(v_mul(n, rn1), dr, dr_add), dr);
+        vf nr2 = v_fma(nx, nx, v_fma(ny, ny, v_mul(nz, nz)));
+        x = v_select(active, nx, x);
+        y = v_select(active, ny, y);
+        z = v_select(active, nz, z);
+        active = orbit_step(p, want, active, nr2, &r2, &cnt, &trap, &gscale, gstep);
+        if (!m_bits(active))
+            break;
+    }
+    vm escaped = v_gt(r2, p->bail2);
+    vf lr2 = v_log(r2);
+    vf est = v_div(v_mul(v_mul(v_sqrt(r2), lr2), v_set1(0.25f)), dr);
+    /* An overflowed derivative (a point within float range of the set) is a hit, never a NaN step. */
+    *dist = v_select(m_and(escaped, v_lt(est, v_set1(HUGE_VALF))), est, zero);
+    *iters = cnt;
+    if (want & UB_WANT_TRAP)
+        ex->trap = v_sqrt(trap);
+    if (want & UB_WANT_POTENTIAL)
+        ex->potential = v_select(escaped, v_mul(v_mul(lr2, v_set1(0.5f)), gscale), zero);
+    if (want & UB_WANT_JACOBIAN)
+        ex->normal[0] = ex->normal[1] = ex->normal[2] = zero;
+}
+
+/* The Mandelbox: per step the box fold (each coordinate beyond +-L reflected back: 2 clamp(x)
+ * - x), the sphere fold (z scaled by fixed^2 / max(r^2, min^2) inside the fixed radius, an
+ * inversion between the radii), then z <- s z + c. Mandelbrot mode: z0 = c = the point; Julia
+ * mode: c fixed. The estimate is the running scale's, |z_n| / dr_n, dr <- |s| k dr (+ 1): the
+ * folds are isometries or similarities piece by piece, but no proof bounds the distance by it,
+ * so the kind is empirical. No potential. */
+static inline void de_mandelbox(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+                                ub_de_extra *ex)
+{
+    const ub_object *o = p->obj;
+    const int julia = o->julia_mode;
+    const vf cx = julia ? v_set1((float)o->julia_c[0]) : x;
+    const vf cy = julia ? v_set1((float)o->julia_c[1]) : y;
+    const vf cz = julia ? v_set1((float)o->julia_c[2]) : z;
+    const vf zero = v_set1(0.0f), one = v_set1(1.0f), two = v_set1(2.0f);
+    const vf L = v_set1((float)o->box_fold), nL = v_set1((float)-o->box_fold);
+    const vf min2 = v_set1((float)(o->min_radius * o->min_radius));
+    const vf fix2 = v_set1((float)(o->fixed_radius * o->fixed_radius));
+    const vf inner = v_set1((float)(o->fixed_radius * o->fixed_radius / (o->min_radius * o->min_radius)));
+    const vf s = v_set1((float)o->box_scale), as = v_set1((float)fabs(o->box_scale));
+    const vf dr_add = julia ? zero : one;
+    vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
+    vf dr = one, cnt = zero, trap = r2, gscale = one;
+    vm active = m_from_bits(0xff);
+    for (int it = 0; it < p->max_iterations; it++) {
+        vf fx = v_fms(two, v_min(v_max(x, nL), L), x);
+        vf fy = v_fms(two, v_min(v_max(y, nL), L), y);
+        vf fz = v_fms(two, v_min(v_max(z, nL), L), z);
+        vf f2 = v_fma(fx, fx, v_fma(fy, fy, v_mul(fz, fz)));
+        vf k = v_select(v_lt(f2, min2), inner,
+                        v_select(v_lt(f2, fix2), v_div(fix2, v_select(v_lt(f2, min2), one, f2)), one));
+        vf sk = v_mul(s, k);
+        vf nx = v_fma(sk, fx, cx), ny = v_fma(sk, fy, cy), nz = v_fma(sk, fz, cz);
+        dr = v_select(active, v_fma(v_mul(as, k), dr, dr_add), dr);
+        vf nr2 = v_fma(nx, nx, v_fma(ny, ny, v_mul(nz, nz)));
+        x = v_select(active, nx, x);
+        y = v_select(active, ny, y);
+        z = v_select(active, nz, z);
+        active = orbit_step(p, want, active, nr2, &r2, &cnt, &trap, &gscale, one);
+        if (!m_bits(active))
+            break;
+    }
+    vm escaped = v_gt(r2, p->bail2);
+    vf est = v_div(v_sqrt(r2), dr);
+    *dist = v_select(m_and(escaped, v_lt(est, v_set1(HUGE_VALF))), est, zero);
+    *iters = cnt;
+    if (want & UB_WANT_TRAP)
+        ex->trap = v_sqrt(trap);
+    if (want & UB_WANT_POTENTIAL)
+        ex->potential = zero;
+    if (want & UB_WANT_JACOBIAN)
+        ex->normal[0] = ex->normal[1] = ex->normal[2] = zero;
+}
