@@ -187,3 +187,38 @@ def viewport_settings_are_scene_properties(S, mod):
     S.report(defaults=defaults, items=items, loaded=[s.viewport_start_divisor, s.viewport_samples,
                                                      s.viewport_time_limit],
              panel=hasattr(bpy.types, "UNBOUND_PT_render_viewport"))
+
+
+def heavy_ifs_viewport_closes_promptly(S, mod):
+    """Issue 16's worst case: an IFS of 32 maps at depth 16 with 32 AO samples at distance 1e-4,
+    8 instances, in the Rendered viewport; closing it (Session.stop) while it refines."""
+    from bl_ext.user_default.unbound import viewport
+    scene = S.empty_scene(640, 360)
+    S.add_camera(scene)
+    bpy.ops.object.unbound_fractal_add(kind='IFS', use_cursor=False)
+    ob = bpy.context.object
+    maps = ob.unbound.ifs_maps
+    maps.clear()
+    rng = np.random.default_rng(1)
+    for i in range(32):  # nearly coincident contractions: the IFS search cannot prune
+        m = maps.add()
+        m.location = tuple(rng.uniform(-0.1, 0.1, 3))
+        m.scale = (0.8, 0.8, 0.8)
+    ob.unbound.ifs_depth = 16
+    for k in range(7):  # 8 instances: linked duplicates share the fractal's settings
+        dup = ob.copy()
+        dup.location = (0.3 * (k - 3), 0.0, 0.0)
+        scene.collection.objects.link(dup)
+    ob.location = (0.3 * 4, 0.0, 0.0)
+    scene.unbound.ao_strength = 1.0
+    scene.unbound.ao_samples = 32
+    scene.unbound.ao_distance = 1e-4
+    scene.unbound.viewport_samples = 16
+    session = viewport.Session()
+    session.update(current_request(scene))
+    time.sleep(0.5)  # well into the refinement: the first levels of this scene take seconds
+    refining = session._finished != session._generation
+    t = time.perf_counter()
+    session.stop()
+    stop_s = time.perf_counter() - t
+    S.report(stop_s=stop_s, refining=refining, alive=session._thread.is_alive(), maps=len(maps))
