@@ -26,15 +26,19 @@ class RenderError(Exception):
 
 def camera_description(engine, depsgraph, width, height):
     """The native camera dict: Blender's own camera matrix and projection matrix, so focal length,
-    sensor size and fit, shift, clipping, orthographic scale and pixel aspect all come for free.
-    With stereo 3D the engine's active view picks the eye: its matrix (camera_model_matrix) and its
-    horizontal shift (camera_shift_x: off-axis convergence shifts each eye's frustum), as Cycles
-    reads them."""
+    sensor size and fit, shift, clipping, orthographic scale and pixel aspect all come for free;
+    for a panoramic camera its type and settings as Cycles reads them. With stereo 3D the engine's
+    active view picks the eye: its matrix (camera_model_matrix) and its horizontal shift
+    (camera_shift_x: off-axis convergence shifts each eye's frustum), as Cycles reads them."""
     cam_ob = evaluated_camera(engine.camera_override or depsgraph.scene.camera, depsgraph)
     cam = camera_dict(depsgraph, cam_ob, engine.camera_model_matrix(cam_ob, use_spherical_stereo=False),
                       width, height)
     shift = engine.camera_shift_x(cam_ob, use_spherical_stereo=False) - cam_ob.data.shift_x
-    if shift:
+    if shift and cam_ob.data.type == 'PANO':
+        # Cycles shifts a panorama's viewplane by the eye's shift_x.
+        vp = cam["viewplane"]
+        cam["viewplane"] = (vp[0] + shift, vp[1] + shift, vp[2], vp[3])
+    elif shift:
         shift_projection_x(cam["projection"], shift, cam_ob.data, depsgraph.scene.render, width, height)
     return cam
 
@@ -56,6 +60,11 @@ def shift_projection_x(projection, shift, cam_data, render, width, height):
         projection[0][3] -= delta
 
 
+# Blender's panoramic camera types Unbound renders, as Cycles does (their core names are the
+# identifiers lower-cased).
+PANORAMA_TYPES = ('EQUIRECTANGULAR', 'FISHEYE_EQUIDISTANT', 'FISHEYE_EQUISOLID', 'MIRRORBALL')
+
+
 def evaluated_camera(cam_ob, depsgraph):
     """The evaluated camera object to render through, or a RenderError a user can act on."""
     if cam_ob is None:
@@ -63,20 +72,54 @@ def evaluated_camera(cam_ob, depsgraph):
     cam_ob = cam_ob.evaluated_get(depsgraph)
     if cam_ob.type != 'CAMERA':
         raise RenderError("The scene camera '%s' is not a camera object" % cam_ob.name)
-    if cam_ob.data.type not in {'PERSP', 'ORTHO'}:
-        raise RenderError("the camera '%s' is %s; only perspective and orthographic cameras are supported"
-                          % (cam_ob.name, {'PANO': "panoramic"}.get(cam_ob.data.type, cam_ob.data.type.lower())))
+    data = cam_ob.data
+    if data.type == 'PANO' and data.panorama_type not in PANORAMA_TYPES:
+        names = {'EQUIANGULAR_CUBEMAP_FACE': "Equiangular Cubemap Face",
+                 'FISHEYE_LENS_POLYNOMIAL': "Fisheye Lens Polynomial"}
+        raise RenderError("the camera '%s' is a panoramic camera of type %s; Unbound renders the "
+                          "equirectangular, fisheye equidistant, fisheye equisolid and mirror ball types"
+                          % (cam_ob.name, names.get(data.panorama_type, data.panorama_type.lower())))
+    if data.type not in {'PERSP', 'ORTHO', 'PANO'}:
+        raise RenderError("the camera '%s' is %s; only perspective, orthographic and panoramic cameras are "
+                          "supported" % (cam_ob.name, data.type.lower()))
     return cam_ob
 
 
-def camera_dict(depsgraph, cam_ob, matrix, width, height):
+def camera_dict(depsgraph, cam_ob, matrix, width, height, viewplane=None):
     """The native camera dict of camera object `cam_ob` (evaluated) placed at `matrix`, for an
-    image of width x height pixels."""
+    image of width x height pixels. viewplane: a panoramic camera's part of the panorama that
+    the image shows (the viewport's); None: the whole panorama, shifted by the camera's shift."""
     r = depsgraph.scene.render
+    data = cam_ob.data
     projection = cam_ob.calc_matrix_camera(depsgraph, x=width, y=height, scale_x=r.pixel_aspect_x,
                                            scale_y=r.pixel_aspect_y)
-    return native_camera(matrix, projection, cam_ob.data.type == 'PERSP', cam_ob.data.clip_start,
-                         cam_ob.data.clip_end, width, height)
+    # A panoramic camera takes only its clip distances from the (perspective) projection.
+    out = native_camera(matrix, projection, data.type != 'ORTHO', data.clip_start, data.clip_end, width, height)
+    if data.type == 'PANO':
+        out.update(panorama_keys(data, r, viewplane))
+    return out
+
+
+def panorama_keys(data, render, viewplane=None):
+    """The core's panoramic camera keys of camera data `data`, as Cycles' blender_camera_sync
+    makes them: the equisolid fisheye's sensor after the sensor fit, which Cycles makes with the
+    render's resolution (also in the viewport); the shift moves the panorama's unit square."""
+    width = render.resolution_x * render.resolution_percentage // 100
+    height = render.resolution_y * render.resolution_percentage // 100
+    fit_x, fit_y = width * render.pixel_aspect_x, height * render.pixel_aspect_y
+    if data.sensor_fit == 'AUTO':
+        horizontal, size = fit_x > fit_y, data.sensor_width
+    elif data.sensor_fit == 'HORIZONTAL':
+        horizontal, size = True, data.sensor_width
+    else:
+        horizontal, size = False, data.sensor_height
+    sensor = (size, size * fit_y / fit_x) if horizontal else (size * fit_x / fit_y, size)
+    if viewplane is None:
+        viewplane = (data.shift_x, 1.0 + data.shift_x, data.shift_y, 1.0 + data.shift_y)
+    return dict(panorama_type=data.panorama_type.lower(), fisheye_fov=data.fisheye_fov,
+                fisheye_lens=data.fisheye_lens, sensor_width=sensor[0], sensor_height=sensor[1],
+                latitude_min=data.latitude_min, latitude_max=data.latitude_max,
+                longitude_min=data.longitude_min, longitude_max=data.longitude_max, viewplane=tuple(viewplane))
 
 
 def native_camera(matrix, projection, perspective, near, far, width, height):

@@ -324,6 +324,39 @@ class UNBOUND_PT_render_sea(RenderSubPanel, bpy.types.Panel):
         layout.prop(s, "sea_reflectivity")
 
 
+class UNBOUND_PT_camera_panorama(UnboundPanel, bpy.types.Panel):
+    """A panoramic camera's type and settings (Blender's Lens panel shows them for Cycles only)"""
+    bl_label = "Panorama"
+    bl_context = "data"
+    bl_parent_id = "DATA_PT_lens"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.camera is not None and context.camera.type == 'PANO'
+
+    def draw(self, context):
+        from . import export
+        layout = self.layout
+        layout.use_property_split = True
+        cam = context.camera
+        col = layout.column()
+        col.prop(cam, "panorama_type")
+        if cam.panorama_type not in export.PANORAMA_TYPES:
+            col.label(text="Unbound does not render this panorama type", icon='ERROR')
+        elif cam.panorama_type == 'FISHEYE_EQUIDISTANT':
+            col.prop(cam, "fisheye_fov")
+        elif cam.panorama_type == 'FISHEYE_EQUISOLID':
+            col.prop(cam, "fisheye_lens", text="Lens")
+            col.prop(cam, "fisheye_fov")
+        elif cam.panorama_type == 'EQUIRECTANGULAR':
+            sub = col.column(align=True)
+            sub.prop(cam, "latitude_min", text="Latitude Min")
+            sub.prop(cam, "latitude_max", text="Max")
+            sub = col.column(align=True)
+            sub.prop(cam, "longitude_min", text="Longitude Min")
+            sub.prop(cam, "longitude_max", text="Max")
+
+
 class UNBOUND_PT_light(UnboundPanel, bpy.types.Panel):
     """The light settings Unbound reads (Cycles' units), in place of Blender's engine-specific panels"""
     bl_label = "Light"
@@ -414,7 +447,7 @@ classes = (UNBOUND_UL_ifs_maps, UNBOUND_PT_fractal_hint, UNBOUND_PT_fractal_hint
            UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
            UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects,
            UNBOUND_PT_render_sea, UNBOUND_PT_performance, UNBOUND_PT_performance_threads, UNBOUND_PT_performance_kernel,
-           UNBOUND_PT_world, UNBOUND_PT_light, UNBOUND_PT_passes)
+           UNBOUND_PT_world, UNBOUND_PT_camera_panorama, UNBOUND_PT_light, UNBOUND_PT_passes)
 
 # Blender's own panels that make sense for Unbound (output format, colour management, camera, world,
 # object transform ...) list the engines they appear for; add ours as Cycles does, except panels

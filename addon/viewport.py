@@ -62,11 +62,23 @@ def view_part(context, depsgraph):
     scene = depsgraph.scene
     matrix = rv3d.view_matrix.inverted()
     window = (0, 0, width, height)
+    pano = None
     try:
         if rv3d.view_perspective == 'CAMERA':
             cam_ob = export.evaluated_camera(v3d.camera if v3d.use_local_camera and v3d.camera else scene.camera,
                                            depsgraph)
             near, far = cam_ob.data.clip_start, cam_ob.data.clip_end
+            if cam_ob.data.type == 'PANO':
+                # As Cycles' camera view of a panoramic camera: the camera frame shows the panorama's
+                # unit square (shifted by the camera's shift), the rest of the region what lies around.
+                frame = camera_frame(scene, region, rv3d, cam_ob)
+                if not (frame[2] > frame[0] and frame[3] > frame[1]):
+                    raise export.RenderError("The camera frame is outside the view")
+                fw, fh = frame[2] - frame[0], frame[3] - frame[1]
+                data = cam_ob.data
+                viewplane = (data.shift_x - frame[0] / fw, data.shift_x + (width - frame[0]) / fw,
+                             data.shift_y - frame[1] / fh, data.shift_y + (height - frame[1]) / fh)
+                pano = export.camera_dict(depsgraph, cam_ob, cam_ob.matrix_world, width, height, viewplane)
             if scene.render.use_border:
                 r = scene.render
                 window = border_window(camera_frame(scene, region, rv3d, cam_ob),
@@ -84,7 +96,8 @@ def view_part(context, depsgraph):
                 window = border_window((0.0, 0.0, width, height),
                                        (v3d.render_border_min_x, v3d.render_border_min_y,
                                         v3d.render_border_max_x, v3d.render_border_max_y), width, height)
-        camera = export.native_camera(matrix, rv3d.window_matrix, rv3d.is_perspective, near, far, width, height)
+        camera = pano or export.native_camera(matrix, rv3d.window_matrix, rv3d.is_perspective, near, far, width,
+                                              height)
     except export.RenderError as exc:
         return dict(camera=None, window=None, error=str(exc))
     return dict(camera=camera, window=window, error=None)

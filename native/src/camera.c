@@ -5,6 +5,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "ubmath.h" /* sin, cos: the same bits on every platform */
+
 static int invert4(const double m[4][4], double out[4][4])
 {
     double a[4][8];
@@ -36,6 +38,9 @@ static int invert4(const double m[4][4], double out[4][4])
             out[i][j] = a[i][j + 4];
     return 1;
 }
+
+static void projection_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
+                           double *t_min, double *t_max);
 
 const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
                               const double projection[4][4])
@@ -77,7 +82,7 @@ const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
     static const double corners[5][2] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}, {0.5, 0.5}};
     for (int i = 0; i < 5; i++) {
         double o[3], d[3], t0, t1;
-        ub_camera_ray(cam, corners[i][0] * cam->width, corners[i][1] * cam->height, o, d, &t0, &t1);
+        projection_ray(cam, corners[i][0] * cam->width, corners[i][1] * cam->height, o, d, &t0, &t1);
         if (!(isfinite(t0) && isfinite(t1) && t0 >= 0.0 && t1 > t0 && t1 < 1e30))
             return "camera.projection must have finite clip planes, 0 <= clip start < clip end";
     }
@@ -94,8 +99,9 @@ static void unproject(const ub_camera *cam, double nx, double ny, double nz, dou
         out[i] = v[i] / v[3];
 }
 
-void ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
-                   double *t_min, double *t_max)
+/* The projection's ray (perspective or orthographic). */
+static void projection_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
+                           double *t_min, double *t_max)
 {
     /* Normalised device coordinates of the pixel centre; y = -1 is the bottom row. */
     double nx = 2.0 * px / cam->width - 1.0;
@@ -132,12 +138,178 @@ void ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3],
     }
 }
 
+
+/* The elementary functions of the panoramic mappings, one small function each: what reaches
+ * pixels must not depend on the platform's libm, so they are ubmath.h's (the same bits on every
+ * platform). Every other step below is + - * / and sqrt. */
+static double pano_sin(double x)
+{
+    return ub_sin(x);
+}
+
+static double pano_cos(double x)
+{
+    return ub_cos(x);
+}
+
+/* A panoramic camera's direction in Blender's camera space (x right, y up, looking down -z) at
+ * panorama coordinates (u, v) in the unit square, as Cycles' panorama_to_direction followed by
+ * the turn Cycles' blender_camera_matrix gives panoramic cameras (Cycles' panorama space looks
+ * along +x, the mirror ball along -y). Returns 0 outside the lens. Where Cycles takes an angle
+ * back from its cosine (fisheyes: phi = acos(u / r); equisolid: theta = 2 asin(r / 2 lens)),
+ * its sine and cosine are written directly: the same mapping without two round trips. */
+static int panorama_direction(const ub_camera *cam, double u, double v, double d[3])
+{
+    switch (cam->panorama) {
+    case UB_PANORAMA_EQUIRECTANGULAR: {
+        double phi = cam->range[0] * u + cam->range[1];
+        double theta = cam->range[2] * v + cam->range[3];
+        double st = pano_sin(theta);
+        /* Cycles' (sin theta cos phi, sin theta sin phi, cos theta), turned. */
+        d[0] = -(st * pano_sin(phi));
+        d[1] = pano_cos(theta);
+        d[2] = -(st * pano_cos(phi));
+        return 1;
+    }
+    case UB_PANORAMA_FISHEYE_EQUIDISTANT:
+    case UB_PANORAMA_FISHEYE_EQUISOLID: {
+        double a, b, r, sin_t, cos_t;
+        if (cam->panorama == UB_PANORAMA_FISHEYE_EQUIDISTANT) {
+            a = (u - 0.5) * 2.0;
+            b = (v - 0.5) * 2.0;
+            r = sqrt(a * a + b * b);
+            if (r > 1.0)
+                return 0;
+            double theta = r * cam->half_fov;
+            sin_t = pano_sin(theta);
+            cos_t = pano_cos(theta);
+        } else {
+            a = (u - 0.5) * cam->sensor[0];
+            b = (v - 0.5) * cam->sensor[1];
+            r = sqrt(a * a + b * b);
+            if (r > 2.0 * cam->lens * cam->sin_quarter_fov)
+                return 0;
+            /* theta = 2 asin(s): cos = 1 - 2 s^2, sin = 2 s sqrt(1 - s^2). */
+            double s = r / (2.0 * cam->lens);
+            cos_t = 1.0 - 2.0 * s * s;
+            sin_t = 2.0 * s * sqrt(fmax(1.0 - s * s, 0.0));
+        }
+        if (r == 0.0) {
+            d[0] = d[1] = 0.0;
+            d[2] = -1.0;
+            return 1;
+        }
+        /* Cycles' (cos theta, -cos phi sin theta, sin phi sin theta), cos phi = a / r, sin phi = b / r. */
+        d[0] = a / r * sin_t;
+        d[1] = b / r * sin_t;
+        d[2] = -cos_t;
+        return 1;
+    }
+    case UB_PANORAMA_MIRRORBALL: {
+        /* The ball's point (a, -c, b) seen along +y reflects (0, 1, 0): (2 c a, 1 - 2 c^2, 2 c b). */
+        double a = 2.0 * u - 1.0, b = 2.0 * v - 1.0;
+        if (a * a + b * b > 1.0)
+            return 0;
+        double c = sqrt(fmax(1.0 - a * a - b * b, 0.0));
+        d[0] = 2.0 * c * a;
+        d[1] = 2.0 * c * b;
+        d[2] = 1.0 - 2.0 * c * c;
+        return 1;
+    }
+    default:
+        return 0;
+    }
+}
+
+int ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3], double *t_min,
+                  double *t_max)
+{
+    if (cam->panorama == UB_PANORAMA_NONE) {
+        projection_ray(cam, px, py, origin, dir, t_min, t_max);
+        return 1;
+    }
+    const double *vp = cam->viewplane;
+    double u = vp[0] + px / cam->width * (vp[1] - vp[0]);
+    double v = vp[2] + py / cam->height * (vp[3] - vp[2]);
+    double d[3];
+    for (int r = 0; r < 3; r++)
+        origin[r] = cam->position[r];
+    if (!panorama_direction(cam, u, v, d)) {
+        dir[0] = dir[1] = dir[2] = 0.0;
+        *t_min = *t_max = 0.0;
+        return 0;
+    }
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int r = 0; r < 3; r++) {
+        const double *row = cam->cam_to_world[r];
+        dir[r] = (row[0] * d[0] + row[1] * d[1] + row[2] * d[2]) / len;
+    }
+    /* Cycles starts a panoramic ray at the clip start along it and ends it at the clip end. */
+    *t_min = cam->near;
+    *t_max = cam->far;
+    return 1;
+}
+
+/* A panoramic camera's constants from its input; NULL or a message. */
+static const char *panorama_prepare(ub_camera *cam, const ub_camera_input *in)
+{
+    cam->panorama = (ub_panorama_type)in->panorama_type;
+    cam->orthographic = 0;
+    /* The clip distances: the projection's, at the image centre, where they are along the view axis. */
+    double o[3], d[3], t0, t1;
+    projection_ray(cam, 0.5 * cam->width, 0.5 * cam->height, o, d, &t0, &t1);
+    cam->near = t0;
+    cam->far = t1;
+    memcpy(cam->viewplane, in->viewplane, sizeof cam->viewplane);
+    cam->range[0] = in->longitude_min - in->longitude_max;
+    cam->range[1] = -in->longitude_min;
+    cam->range[2] = in->latitude_min - in->latitude_max;
+    cam->range[3] = -in->latitude_min + M_PI_2;
+    cam->half_fov = 0.5 * in->fisheye_fov;
+    cam->lens = in->fisheye_lens;
+    cam->sensor[0] = in->sensor_width;
+    cam->sensor[1] = in->sensor_height;
+    cam->sin_quarter_fov = pano_sin(0.25 * in->fisheye_fov);
+    /* Pixel footprint: the angle one pixel spans at the image centre (the mappings' least), per
+     * unit of distance; the smaller side of the pixel, as for the projection's cameras. */
+    double du = fabs(cam->viewplane[1] - cam->viewplane[0]) / cam->width;
+    double dv = fabs(cam->viewplane[3] - cam->viewplane[2]) / cam->height;
+    double fx, fy;
+    switch (cam->panorama) {
+    case UB_PANORAMA_EQUIRECTANGULAR:
+        fx = fabs(cam->range[0]) * du;
+        fy = fabs(cam->range[2]) * dv;
+        break;
+    case UB_PANORAMA_FISHEYE_EQUIDISTANT:
+        fx = 2.0 * cam->half_fov * du;
+        fy = 2.0 * cam->half_fov * dv;
+        break;
+    case UB_PANORAMA_FISHEYE_EQUISOLID:
+        fx = cam->sensor[0] / cam->lens * du;
+        fy = cam->sensor[1] / cam->lens * dv;
+        break;
+    default: /* mirror ball: twice the ball's slope */
+        fx = 4.0 * du;
+        fy = 4.0 * dv;
+        break;
+    }
+    double f = fx > 0.0 && fy > 0.0 ? fmin(fx, fy) : fmax(fx, fy);
+    if (!(f > 0.0 && isfinite(f)))
+        return "camera: the panorama's viewplane and latitude/longitude ranges must not both be empty";
+    cam->footprint0 = 0.0;
+    cam->footprint1 = f;
+    return NULL;
+}
+
 const char *ub_camera_from_input(ub_camera *cam, const ub_camera_input *in)
 {
     memset(cam, 0, sizeof *cam);
     cam->width = in->width;
     cam->height = in->height;
-    return ub_camera_prepare(cam, in->matrix, in->projection);
+    const char *err = ub_camera_prepare(cam, in->matrix, in->projection);
+    if (!err && in->panorama_type != UB_PANORAMA_NONE)
+        err = panorama_prepare(cam, in);
+    return err;
 }
 
 double ub_pixel_footprint(const ub_camera *cam, double t)

@@ -39,27 +39,35 @@ static inline int cancelled(const ub_scene *sc)
 #include "march.h"
 #include "shading.h"
 
-/* Camera ray of full-image pixel (px, py) at sub-pixel offset `off` (one anti-aliasing sample). */
-static void pixel_ray(const ub_camera *cam, int px, int py, const double off[2], double o[3], double d[3],
-                             double *t_min, double *t_max)
+/* Camera ray of full-image pixel (px, py) at sub-pixel offset `off` (one anti-aliasing sample);
+ * 0 where a panoramic camera sees nothing. */
+static int pixel_ray(const ub_camera *cam, int px, int py, const double off[2], double o[3], double d[3],
+                     double *t_min, double *t_max)
 {
-    ub_camera_ray(cam, px + off[0], py + off[1], o, d, t_min, t_max);
+    return ub_camera_ray(cam, px + off[0], py + off[1], o, d, t_min, t_max);
 }
 
 /* Camera rays of the n pixels (px + step l, py), l < n; padding lanes repeat the last real
- * pixel (their results are discarded). */
-static void camera_packet(const ub_camera *cam, int px, int py, int step, int n, const double off[2],
-                                 ub_packet_rays *pr)
+ * pixel (their results are discarded). Returns the lanes whose pixel sees the scene: outside a
+ * panoramic camera's lens a lane gets the view axis and an empty t range, and is not traced. */
+static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, const double off[2],
+                         ub_packet_rays *pr)
 {
+    int seen = 0;
     for (int l = 0; l < UB_LANES; l++) {
         double o[3], d[3];
-        pixel_ray(cam, px + step * (l < n ? l : n - 1), py, off, o, d, &pr->t_min[l], &pr->t_max[l]);
+        if (pixel_ray(cam, px + step * (l < n ? l : n - 1), py, off, o, d, &pr->t_min[l], &pr->t_max[l]))
+            seen |= 1 << l;
+        else
+            for (int i = 0; i < 3; i++)
+                d[i] = cam->forward[i];
         for (int i = 0; i < 3; i++) {
             pr->origin[i][l] = o[i];
             pr->dir[i][l] = d[i];
         }
         pr->t_base[l] = 0.0f;
     }
+    return seen;
 }
 
 static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1,
@@ -79,9 +87,11 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             ub_packet_rays pr;
-            camera_packet(sc->camera, hb->x0 + hb->step * x, hb->y0 + hb->step * y, hb->step, n, off, &pr);
+            int seen = camera_packet(sc->camera, hb->x0 + hb->step * x, hb->y0 + hb->step * y, hb->step, n, off,
+                                     &pr);
             ub_trace_result tr;
-            trace(sc, dps, &pr, (1 << n) - 1, sc->shading->sea ? UB_TRACE_SEA : 0, NULL, &tr, cnt);
+            /* Lanes outside a panoramic camera's lens come back as misses (UB_HIT_NONE). */
+            trace(sc, dps, &pr, ((1 << n) - 1) & seen, sc->shading->sea ? UB_TRACE_SEA : 0, NULL, &tr, cnt);
             for (int l = 0; l < n; l++) {
                 ub_hit *h = &hb->hits[(size_t)y * hb->w + x + l];
                 h->t = tr.t[l];
@@ -107,7 +117,8 @@ static int buffer_point(const ub_scene *sc, const double off[2], int bx, int by,
     if (h->object != object)
         return 0;
     double o[3], d[3], t0, t1;
-    pixel_ray(sc->camera, hb->x0 + hb->step * bx, hb->y0 + hb->step * by, off, o, d, &t0, &t1);
+    if (!pixel_ray(sc->camera, hb->x0 + hb->step * bx, hb->y0 + hb->step * by, off, o, d, &t0, &t1))
+        return 0;
     for (int i = 0; i < 3; i++)
         p[i] = o[i] + (double)h->t * d[i];
     *t = h->t;
@@ -448,6 +459,7 @@ typedef struct {
     float nrm0[3][UB_LANES];
     float primary_steps[UB_LANES], primary_iters[UB_LANES], primary_dist[UB_LANES];
     int primary_obj[UB_LANES];
+    int unseen;             /* lanes outside a panoramic camera's lens */
 } ub_paths;
 
 /* The camera rays' hits of packet (x, y) from the hit buffer into tr, and the empty paths. */
@@ -567,19 +579,27 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
     for (int l = 0; l < n; l++) {
         size_t idx = (size_t)y * (size_t)film->w + (size_t)(x + l);
         int hit = ps->primary_obj[l] != UB_HIT_NONE;
+        int unseen = (ps->unseen >> l) & 1;
         float g = sh->glow_strength > 0.0f ? sh->glow_strength * (1.0f - ub_expf(-ps->primary_steps[l] * glow_scale))
                                            : 0.0f;
         float glow[3] = {g * sh->glow_color[0], g * sh->glow_color[1], g * sh->glow_color[2]};
+        /* Outside a panoramic camera's lens Cycles traces nothing and shows opaque black (with a
+         * transparent film too): no background there. */
         float rgba[4] = {ps->L[0][l] + glow[0], ps->L[1][l] + glow[1], ps->L[2][l] + glow[2],
-                         hit ? 1.0f : film->background[3]};
+                         hit || unseen ? 1.0f : film->background[3]};
         float alpha = hit ? 1.0f : 0.0f, zero3[3] = {0, 0, 0};
+        /* Depth: along the view axis, or for panoramic cameras the distance from the camera
+         * (Cycles' camera_z_depth). */
         double depth = 0.0;
         float normal[3], pos[3];
         for (int i = 0; i < 3; i++) {
-            depth += (ps->pos0[i][l] - cam->position[i]) * cam->forward[i];
+            double rel = ps->pos0[i][l] - cam->position[i];
+            depth += cam->panorama == UB_PANORAMA_NONE ? rel * cam->forward[i] : rel * rel;
             normal[i] = ps->nrm0[i][l];
             pos[i] = (float)ps->pos0[i][l];
         }
+        if (cam->panorama != UB_PANORAMA_NONE)
+            depth = sqrt(depth);
         float depthf = hit ? (float)depth : UB_BACKGROUND_DEPTH;
         float iters = hit ? ps->primary_iters[l] : 0.0f, dist = hit ? ps->primary_dist[l] : 0.0f;
         float refl[3] = {ps->R[0][l], ps->R[1][l], ps->R[2][l]};
@@ -633,9 +653,11 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
             ub_packet_rays pr;
             ub_trace_result tr;
             ub_paths ps;
-            camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, off, &pr);
+            int seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, off,
+                                     &pr);
             start_paths(sc->hits, x, y, n, &tr, &ps);
-            int alive = (1 << n) - 1;
+            int alive = ((1 << n) - 1) & seen;
+            ps.unseen = ~seen;
             for (int bounce = 0; alive; bounce++) {
                 if (bounce > 0) {
                     trace(sc, dps, &pr, alive, sh->sea ? UB_TRACE_SEA : 0, NULL, &tr, cnt);

@@ -1161,7 +1161,8 @@ static PyMethodDef methods[] = {
      "escape count at object-space points, computed by the marching kernel's own arithmetic"},
     {"camera_ray", py_camera_ray, METH_VARARGS,
      "camera_ray(camera, x, y) -> (origin, direction, t_min, t_max) of the ray through full-image pixel "
-     "coordinates (x, y); pixel centres are at +0.5"},
+     "coordinates (x, y); pixel centres are at +0.5. Outside a panoramic camera's lens (where Cycles traces no "
+     "ray) the direction is (0, 0, 0) and t_min = t_max = 0"},
     {"describe", py_describe, METH_VARARGS,
      "describe(object) -> derived values: bounding ball (object space, and its radius in the world), effective "
      "bailout, singular values of the placement, slice after the theta rotation"},

@@ -37,6 +37,8 @@ static const char *const color_modes[] = {"base", "orbit_trap", "iterations", NU
 static const char *const cubic_components[] = {"plus", "minus", "union", "both", NULL};
 static const char *const light_types[] = {"point", "sun", "spot", "area", NULL};
 static const char *const shadow_modes[] = {"none", "hard", "soft", NULL};
+static const char *const panorama_types[] = {"none", "equirectangular", "fisheye_equidistant", "fisheye_equisolid",
+                                             "mirrorball", NULL};
 
 /* ------------------------------------------------------------------ object */
 
@@ -113,6 +115,22 @@ static const ub_param camera_rows[] = {
            "projection matrix (Blender's calc_matrix_camera), perspective or orthographic"),
     SCALAR(CAM, width, UB_PARAM_INT, 1, UB_MAX_IMAGE_SIZE, NULL, UB_PARAM_REQUIRED, "image width in pixels"),
     SCALAR(CAM, height, UB_PARAM_INT, 1, UB_MAX_IMAGE_SIZE, NULL, UB_PARAM_REQUIRED, "image height in pixels"),
+    CHOICE(CAM, panorama_type, panorama_types, NULL,
+           "none: the projection's camera; else Cycles' panoramic camera of that type (the projection then "
+           "gives only the clip start and end, as distances along each ray)"),
+    REAL(CAM, fisheye_fov, 1e-3, 10.0 * M_PI, D(M_PI),
+         "fisheye: field of view, radians (equidistant: of the image's inscribed ellipse; equisolid: its limit)"),
+    REAL(CAM, fisheye_lens, 1e-3, 1e6, D(10.5), "equisolid fisheye: focal length, mm"),
+    REAL(CAM, sensor_width, 1e-3, 1e6, D(36.0), "equisolid fisheye: sensor width, mm, after Blender's sensor fit"),
+    REAL(CAM, sensor_height, 1e-3, 1e6, D(24.0), "equisolid fisheye: sensor height, mm, after Blender's sensor fit"),
+    /* +-1.5707964: Blender's limit is pi / 2 in float32, a little above the double's. */
+    REAL(CAM, latitude_min, -1.5707964, 1.5707964, D(-M_PI / 2), "equirectangular: latitude of the bottom edge, radians"),
+    REAL(CAM, latitude_max, -1.5707964, 1.5707964, D(M_PI / 2), "equirectangular: latitude of the top edge, radians"),
+    REAL(CAM, longitude_min, -1e6, 1e6, D(-M_PI), "equirectangular: longitude of the left edge, radians"),
+    REAL(CAM, longitude_max, -1e6, 1e6, D(M_PI), "equirectangular: longitude of the right edge, radians"),
+    VECTOR(CAM, viewplane, 4, -1e6, 1e6, D(0.0, 1.0, 0.0, 1.0), 0,
+           "panoramic: (u at the left edge, u at the right edge, v at the bottom, v at the top) of the "
+           "panorama's unit square (Cycles' viewplane: the camera's shift, or a view's part of the camera frame)"),
 };
 #undef CAM
 const ub_param_section ub_camera_section = {"camera", ROWS(camera_rows), sizeof(ub_camera_input)};

@@ -97,6 +97,10 @@ typedef struct {
 typedef struct {
     double matrix[4][4], projection[4][4];
     int width, height;
+    int panorama_type;        /* ub_panorama_type */
+    double fisheye_fov, fisheye_lens, sensor_width, sensor_height;
+    double latitude_min, latitude_max, longitude_min, longitude_max;
+    double viewplane[4];
 } ub_camera_input;
 
 typedef struct {

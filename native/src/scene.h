@@ -33,6 +33,15 @@
 
 typedef enum { UB_EPSILON_PIXEL = 0, UB_EPSILON_FIXED = 1 } ub_epsilon_mode;
 
+/* Cycles' panoramic cameras (kernel/camera/projection.h); UB_PANORAMA_NONE: the projection's. */
+typedef enum {
+    UB_PANORAMA_NONE = 0,
+    UB_PANORAMA_EQUIRECTANGULAR,
+    UB_PANORAMA_FISHEYE_EQUIDISTANT,
+    UB_PANORAMA_FISHEYE_EQUISOLID,
+    UB_PANORAMA_MIRRORBALL,
+} ub_panorama_type;
+
 typedef struct {
     /* Full image (not the window) in pixels. */
     int width, height;
@@ -46,6 +55,14 @@ typedef struct {
     double position[3];
     /* World-space footprint of one pixel at ray distance t: footprint0 + footprint1 * t. */
     double footprint0, footprint1;
+    /* Panoramic cameras: the type, the panorama's (u, v) of the image's edges (left, right,
+     * bottom, top), the clip distances along each ray, and the mapping's constants:
+     * equirectangular: phi = range[0] u + range[1], theta = range[2] v + range[3] (Cycles'
+     * equirectangular_range); equidistant: half the field of view; equisolid: the focal length,
+     * the sensor size and the sine of a quarter of the field of view (the lens circle). */
+    ub_panorama_type panorama;
+    double viewplane[4], near, far;
+    double range[4], half_fov, lens, sensor[2], sin_quarter_fov;
 } ub_camera;
 
 /* The families of section 5 beside the quaternion Julia sets. Julia sets, Mandelbrot slices and
@@ -302,8 +319,10 @@ const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
                               const double projection[4][4]);
 /* World-space width of one pixel at ray distance t (the smaller side of a non-square pixel). */
 double ub_pixel_footprint(const ub_camera *cam, double t);
-/* Ray through the centre of full-image pixel (px, py): world origin, unit direction, t range. */
-void ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
-                   double *t_min, double *t_max);
+/* Ray through full-image point (px, py) (a pixel's centre is at +0.5): world origin, unit
+ * direction, t range. Returns 0 where a panoramic camera sees nothing (outside a fisheye's or the
+ * mirror ball's circle: Cycles traces no ray there), with a zero direction and t range. */
+int ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
+                  double *t_min, double *t_max);
 
 #endif

@@ -37,6 +37,8 @@ Checks (tolerances stated where they are asserted):
    the rendered window (both engines write it), and Blender's own fill (1e11) outside an uncropped
    render border.
 """
+import math
+
 import numpy as np
 import pytest
 
@@ -127,3 +129,110 @@ def test_unbound_matches_cycles(run_bpy, tmp_path, case):
     assert np.array_equal(z[background], px["cycles_depth"][background])
     assert (z[background] >= BACKGROUND_DEPTH).all()
     assert (z[background] == BACKGROUND_DEPTH).any()
+
+
+# Panoramic cameras (issue 17) against Cycles' own panoramic render of the same mesh spheres, with
+# the same bpy script. NEAR puts the ball large in a wide view.
+NEAR = (0.35, -1.6, 0.5)
+PANO_CASES = {
+    "fisheye_equidistant_180": (NEAR, dict(type='PANO', panorama_type='FISHEYE_EQUIDISTANT', fisheye_fov=math.pi),
+                                None, {}),
+    "fisheye_equidistant_250_shift": (NEAR, dict(type='PANO', panorama_type='FISHEYE_EQUIDISTANT',
+                                                 fisheye_fov=math.radians(250), shift_x=0.12, shift_y=-0.05),
+                                      None, {}),
+    "fisheye_equisolid": (NEAR, dict(type='PANO', panorama_type='FISHEYE_EQUISOLID', fisheye_lens=10.5,
+                                     fisheye_fov=math.pi), None, {}),
+    "fisheye_equisolid_vertical_fit_portrait": (
+        NEAR, dict(type='PANO', panorama_type='FISHEYE_EQUISOLID', fisheye_lens=8.0, fisheye_fov=math.radians(200),
+                   sensor_fit='VERTICAL', sensor_height=20.0), None,
+        dict(resolution_x=64, resolution_y=90, pixel_aspect_x=1.2)),
+    "mirrorball": (NEAR, dict(type='PANO', panorama_type='MIRRORBALL'), None, {}),
+    "equirectangular_full": (NEAR, dict(type='PANO', panorama_type='EQUIRECTANGULAR'), None, {}),
+    "equirectangular_ranges_border": (
+        NEAR, dict(type='PANO', panorama_type='EQUIRECTANGULAR', latitude_min=-0.7, latitude_max=0.5,
+                   longitude_min=-0.9, longitude_max=0.6, shift_y=0.03), None,
+        dict(BORDER, use_crop_to_border=True)),
+}
+# Pixels whose centre lies this close to the lens circle (in the mapping's radius, 1 at the rim) may
+# fall on either side: about 0.1 pixel at these sizes. Cycles' samples of a rim pixel land on both
+# sides farther out than its 0.01-pixel filter suggests: measured, one pixel 0.064 pixel outside the
+# equisolid circle (radius 1.0016) had one Cycles sample of 4 inside; every other pixel agrees.
+LENS_RIM = 3e-3
+
+
+def lens_radius(case):
+    """The mapping's radius at each pixel centre, 1 at the lens circle (None: no lens circle), as
+    Cycles computes it (projection.h), for the case's camera and image."""
+    _, data, _, render = case
+    kind = data["panorama_type"]
+    if kind == 'EQUIRECTANGULAR':
+        return None
+    w, h = render.get("resolution_x", 96), render.get("resolution_y", 72)
+    ys, xs = np.mgrid[0:h, 0:w]
+    u = data.get("shift_x", 0.0) + (xs + 0.5) / w
+    v = data.get("shift_y", 0.0) + (ys + 0.5) / h
+    if kind == 'MIRRORBALL' or kind == 'FISHEYE_EQUIDISTANT':
+        return np.hypot(2 * u - 1, 2 * v - 1)
+    fx, fy = w * render.get("pixel_aspect_x", 1.0), h * render.get("pixel_aspect_y", 1.0)
+    fit = data.get("sensor_fit", 'AUTO')
+    if fit == 'VERTICAL':
+        size = data.get("sensor_height", 24.0)
+        sw, sh = size * fx / fy, size
+    else:
+        size = data.get("sensor_width", 36.0)
+        sw, sh = (size, size * fy / fx) if fit == 'HORIZONTAL' or fx > fy else (size * fx / fy, size)
+    rmax = 2 * data["fisheye_lens"] * math.sin(data["fisheye_fov"] / 4)
+    return np.hypot((u - 0.5) * sw, (v - 0.5) * sh) / rmax
+
+
+@pytest.mark.parametrize("case", PANO_CASES, ids=list(PANO_CASES))
+def test_panoramic_unbound_matches_cycles(run_bpy, tmp_path, case):
+    """Coverage masks, lens circle and Depth (the distance along the ray for panoramas, as Cycles'
+    camera_z_depth) against Cycles' render of the 256 x 128 UV sphere and of its copies scaled by
+    1 -/+ BAND. Outside the lens Cycles traces nothing: opaque black (alpha 1), Depth 1e10."""
+    assert run_bpy("camera_exactness.unbound_matches_cycles", args=dict(case=PANO_CASES[case], band=BAND),
+                   timeout=240).get("done")
+    px = dict(np.load(tmp_path / "renders.npz"))
+    shapes = {k: v.shape for k, v in px.items()}
+    assert len(set(shapes.values())) == 1, shapes
+    # The lens: where a render is opaque with the background's Depth (the film is transparent).
+    unseen = {k[:-6]: (v == 1.0) & (px[k[:-6] + "_depth"] >= BACKGROUND_DEPTH) for k, v in px.items()
+              if k.endswith("_alpha")}
+    radius = lens_radius(PANO_CASES[case])
+    if radius is None:
+        assert not unseen["unbound"].any() and not unseen["cycles"].any()
+    else:
+        if PANO_CASES[case][3].get("use_border"):
+            r = PANO_CASES[case][3]
+            w, h = r.get("resolution_x", 96), r.get("resolution_y", 72)
+            x0, x1 = int(np.float32(r["border_min_x"]) * w), int(np.float32(r["border_max_x"]) * w)
+            y0, y1 = int(np.float32(r["border_min_y"]) * h), int(np.float32(r["border_max_y"]) * h)
+            radius = radius[y0:y1, x0:x1]
+        radius = radius[::-1]  # EXR rows run top to bottom
+        assert unseen["cycles"].any() and (~unseen["cycles"]).any()
+        differ = unseen["unbound"] != unseen["cycles"]
+        assert not (differ & (np.abs(radius - 1.0) > LENS_RIM)).any(), pixels(differ)
+        assert not (unseen["unbound"] != (radius > 1.0))[np.abs(radius - 1.0) > 1e-9].any()
+    lens = ~unseen["unbound"] & ~unseen["cycles"]
+    cover = {k[:-6]: (v > 0.5) & lens for k, v in px.items() if k.endswith("_alpha")}
+    unbound, cycles = cover["unbound"], cover["cycles"]
+    assert cycles.any() and (lens & ~cycles).any(), "the case must show part of the ball's silhouette"
+    assert set(np.unique(px["unbound_alpha"])) <= {0.0, 1.0}
+    iou = (unbound & cycles).sum() / (unbound | cycles).sum()
+    print("%s: coverage IoU %.4f (%d pixels), Unbound-only %d, Cycles-only %d"
+          % (case, iou, cycles.sum(), (unbound & ~cycles).sum(), (cycles & ~unbound).sum()))
+    assert iou >= IOU_MIN, (iou, pixels(unbound & ~cycles), pixels(cycles & ~unbound))
+    inner, outer = cover["inner"], cover["outer"]
+    assert not (inner & ~unbound).any(), ("Unbound misses pixels the inner mesh covers", pixels(inner & ~unbound))
+    assert not (unbound & ~outer).any(), ("Unbound covers pixels the outer mesh misses", pixels(unbound & ~outer))
+    full = (px["inner_alpha"] == 1.0) & lens
+    z = px["unbound_depth"]
+    assert not (full & (z < px["outer_depth"])).any(), ("Depth nearer than the outer mesh", pixels(full & (z < px["outer_depth"])))
+    assert not (full & (z > px["inner_depth"])).any(), ("Depth farther than the inner mesh", pixels(full & (z > px["inner_depth"])))
+    core = erode(unbound & cycles, 2)
+    assert core.sum() >= 20
+    error = np.abs(z - px["cycles_depth"])[core]
+    print("%s: Depth |Unbound - Cycles| max %.2e median %.2e" % (case, error.max(), np.median(error)))
+    assert error.max() <= DEPTH_TOL, (error.max(), np.median(error))
+    background = ~unbound & ~cycles
+    assert np.array_equal(z[background], px["cycles_depth"][background])

@@ -133,6 +133,7 @@ def errors_are_reported_not_raised_inside_the_engine(S, mod):
     S.add_camera(scene)
     S.add_fractal()
     scene.camera.data.type = 'PANO'
+    scene.camera.data.panorama_type = 'EQUIANGULAR_CUBEMAP_FACE'
     try:
         bpy.ops.render.render()
         outcome = "finished"

@@ -110,7 +110,10 @@ def every_core_key_is_reachable(S, mod):
     shading = export.shading_description(dg)
     for light in shading["lights"]:
         light_keys |= set(light)
-    camera = export.camera_dict(dg, scene.camera.evaluated_get(dg), scene.camera.matrix_world, 32, 24)
+    camera = set(export.camera_dict(dg, scene.camera.evaluated_get(dg), scene.camera.matrix_world, 32, 24))
+    scene.camera.data.type = 'PANO'  # a panoramic camera's keys too
+    dg = bpy.context.evaluated_depsgraph_get()
+    camera |= set(export.camera_dict(dg, scene.camera.evaluated_get(dg), scene.camera.matrix_world, 32, 24))
     render_keys = set(export.render_options(scene))
     S.report(object=sorted(object_keys), shading=sorted(shading), light=sorted(light_keys), camera=sorted(camera),
              render=sorted(render_keys), table={s: sorted(uc.PARAMETERS[s]) for s in uc.PARAMETERS})

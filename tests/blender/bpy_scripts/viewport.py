@@ -29,9 +29,10 @@ def combined(exr):
 def final_level_equals_a_final_render_of_the_same_view(S, mod):
     from bl_ext.user_default.unbound import viewport
     results = {}
-    for camera_type in ("PERSP", "ORTHO"):
+    for camera_type in ("PERSP", "ORTHO", "PANO"):
         scene = S.empty_scene(123, 77)
-        S.add_camera(scene, type=camera_type, ortho_scale=3.0)
+        pano = dict(panorama_type='FISHEYE_EQUIDISTANT', fisheye_fov=3.5) if camera_type == 'PANO' else {}
+        S.add_camera(scene, type=camera_type, ortho_scale=3.0, **pano)
         S.add_fractal(reflectivity=0.3)
         light = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
         scene.collection.objects.link(light)
