@@ -11,7 +11,7 @@ Lambert light, no effects) with the formula swapped:
   (-78.75 for n = 8), n (lat + beta) = pi/2 - n theta, so cos and sin of it are sin n theta and
   cos n theta: the very same map (and the same running derivative), no parameter of ours needed.
 * Mandelbox scale 2, fold limit 1, radii 0.5 / 1 (both programs' defaults), Mandelbrot form,
-  14 iterations, bailout sqrt(3) 10 (ours: the proven escape radius, scene.c), camera 4x farther.
+  14 iterations, bailout sqrt(3) 10 (ours: the proven escape radius, scene.c), camera 8x farther.
 Our core renders combined + alpha + depth; the peer figures are its whole process (start-up, render,
 PNG write: what it costs a user). CPU time is quoted next to wall time: on this shared machine
 wall time depends on other jobs."""
@@ -41,7 +41,7 @@ SCENES = {
     "mandelbulb": dict(obj=dict(kind="mandelbulb", power=8.0, max_iterations=12, bailout=4.0), distance=3.0,
                        peer={"formula_1": 2, "N": 12, "bailout": 4, "julia_mode": "false"},
                        fractal={"power": 8, "beta_angle_offset": 90.0 / 8 - 90.0}),
-    "mandelbox": dict(obj=dict(kind="mandelbox", box_scale=2.0, max_iterations=14), distance=12.0,
+    "mandelbox": dict(obj=dict(kind="mandelbox", box_scale=2.0, max_iterations=14), distance=24.0,
                       peer={"formula_1": 8, "N": 14, "bailout": math.sqrt(3) * 10, "julia_mode": "false"},
                       fractal={"mandelbox_scale": 2, "mandelbox_folding_limit": 1, "mandelbox_folding_value": 2,
                                "mandelbox_folding_min_radius": 0.5, "mandelbox_folding_fixed_radius": 1}),
