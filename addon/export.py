@@ -166,7 +166,12 @@ OBJECT_KEYS = ("kind", "mu", "theta", "max_iterations", "bailout", "threshold_mo
                "normal_delta", "reflectivity", "color_mode", "ramp_scale", "ramp_offset")
 KIND_KEYS = {'JULIA_STACK': ("stack_height",), 'CUBIC_LOCUS': ("cubic_component", "extent"),
              'IFS': ("ifs_depth",), 'MANDELBULB': ("power", "julia_mode", "julia_c"),
-             'MANDELBOX': ("box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c")}
+             'MANDELBOX': ("box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c"),
+             'KIFS': ("kifs_scale", "kifs_offset", "kifs_rotation", "kifs_shape", "kifs_size"),
+             'HYBRID': ("power", "box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c",
+                        "kifs_scale", "kifs_offset", "kifs_rotation")}
+# A hybrid entry's formula as the core numbers it.
+HYBRID_FORMULA_INDEX = {'MANDELBULB': 0, 'MANDELBOX': 1, 'KIFS': 2}
 
 # The most points of a c-path and of a colour ramp the core takes (its PARAMETERS).
 PATH_POINTS = 256
@@ -198,6 +203,12 @@ def object_parameters(ob, depsgraph=None, with_ramp=True):
             if not len(props.ifs_maps):
                 raise RenderError("an IFS needs at least one map: add one, or pick a preset")
             out["maps"] = [ifs_map_rows(m) for m in props.ifs_maps]
+        if props.kind in {'KIFS', 'HYBRID'}:
+            out["kifs_planes"] = [tuple(p.normal) + (p.offset,) for p in props.kifs_planes]
+        if props.kind == 'HYBRID':
+            if not len(props.hybrid_steps):
+                raise RenderError("a hybrid needs at least one step: add one, or pick a preset")
+            out["hybrid_steps"] = [(HYBRID_FORMULA_INDEX[e.formula], e.count) for e in props.hybrid_steps]
     except RenderError as exc:  # named as the core names an object
         raise RenderError("fractal '%s': %s" % (ob.name, exc)) from None
     return out

@@ -24,7 +24,8 @@ BUNDLED_LOOK_PRESETS = os.path.join(os.path.dirname(__file__), "presets", "look"
 # What a preset holds: every setting of the PropertyGroup, read from its annotations so that a new
 # one is never left out, except a datablock (the ramp texture, the path curve), the map shown for
 # editing, and machine-specific render or viewport settings.
-FRACTAL_PRESET_EXCLUDE = {"is_fractal", "color_ramp_texture", "path_curve", "ifs_active_map"}
+FRACTAL_PRESET_EXCLUDE = {"is_fractal", "color_ramp_texture", "path_curve", "ifs_active_map", "kifs_active_plane",
+                          "hybrid_active_step"}
 LOOK_PRESET_EXCLUDE = {"tile_size", "simd"}
 
 
@@ -383,6 +384,43 @@ def set_ifs_maps(props, shape):
     props.ifs_active_map = 0
 
 
+# Knighty's kaleidoscopic IFS shapes (reference/kifs64.py holds them equal to his own code): fold
+# planes (normal, offset), scale, offset, final shape, iterations. The Menger sponge's last plane
+# (z >= 1/3 before the scale) is his "z.z < -1: z.z += 2" after it, up to a sign the next abs fold
+# and the symmetric box undo.
+KIFS_SHAPES = {
+    'MENGER': ([((1, 0, 0), 0), ((0, 1, 0), 0), ((0, 0, 1), 0), ((1, -1, 0), 0), ((1, 0, -1), 0), ((0, 1, -1), 0),
+                ((0, 0, 1), 1.0 / 3.0)], 3.0, (1.0, 1.0, 1.0), 'BOX', 6),
+    'SIERPINSKI': ([((1, 1, 0), 0), ((1, 0, 1), 0), ((0, 1, 1), 0)], 2.0, (1.0, 1.0, 1.0), 'TETRAHEDRON', 10),
+    'OCTAHEDRAL': ([((1, 1, 0), 0), ((1, 0, 1), 0), ((1, -1, 0), 0), ((1, 0, -1), 0)], 2.0, (1.0, 0.0, 0.0),
+                   'OCTAHEDRON', 10),
+}
+KIFS_SHAPE_ITEMS = [
+    ('MENGER', "Menger Sponge", "Abs folds, sorting folds and one offset plane; scale 3, a box", 0),
+    ('SIERPINSKI', "Sierpinski Tetrahedron", "Three folds x + y, x + z, y + z >= 0; scale 2, a tetrahedron", 1),
+    ('OCTAHEDRAL', "Octahedral Flake", "Four folds; scale 2 toward (1, 0, 0), an octahedron", 2),
+]
+
+
+def set_kifs_shape(props, shape):
+    planes, scale, offset, final, iterations = KIFS_SHAPES[shape]
+    props.kifs_planes.clear()
+    for normal, d in planes:
+        p = props.kifs_planes.add()
+        p.normal, p.offset = normal, d
+    props.kifs_active_plane = 0
+    props.kifs_scale, props.kifs_offset, props.kifs_rotation = scale, offset, (0.0, 0.0, 0.0)
+    props.kifs_shape, props.kifs_size, props.max_iterations = final, 1.0, iterations
+
+
+def set_hybrid_steps(props, steps):
+    props.hybrid_steps.clear()
+    for formula, count in steps:
+        e = props.hybrid_steps.add()
+        e.formula, e.count = formula, count
+    props.hybrid_active_step = 0
+
+
 ALIGN_ITEMS = [
     ('WORLD', "World", "Align the new object to the world"),
     ('VIEW', "View", "Align the new object to the view"),
@@ -465,6 +503,14 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
             set_ifs_maps(props, 'SIERPINSKI')
         elif self.kind in {'QUATERNION_MANDELBROT', 'CUBIC_LOCUS'}:
             props.max_iterations = 24
+        elif self.kind == 'KIFS':
+            set_kifs_shape(props, 'MENGER')
+        elif self.kind == 'HYBRID':
+            # A Mandelbulb step, then a Mandelbox step at the Mandelbox's Add size (below).
+            set_hybrid_steps(props, [('MANDELBULB', 1), ('MANDELBOX', 1)])
+            set_kifs_shape(props, 'SIERPINSKI')
+            props.max_iterations = 10
+            props.box_fold, props.min_radius, props.fixed_radius = 1.0 / 6.0, 1.0 / 12.0, 1.0 / 6.0
         elif self.kind == 'MANDELBOX':
             # The set scales with the fold limit and both radii together: at scale 2 its cube spans
             # +-6 fold limits, so 1/6 makes it +-1, the other kinds' size.
@@ -543,6 +589,100 @@ class UNBOUND_OT_ifs_map_remove(IFSOperator, bpy.types.Operator):
             return {'CANCELLED'}
         props.ifs_maps.remove(props.ifs_active_map)
         props.ifs_active_map = max(0, min(props.ifs_active_map, len(props.ifs_maps) - 1))
+        return {'FINISHED'}
+
+
+class KIFSOperator:
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return utils.is_fractal(context.object) and context.object.unbound.kind in {'KIFS', 'HYBRID'}
+
+
+class UNBOUND_OT_kifs_shape(KIFSOperator, bpy.types.Operator):
+    """Replace the KIFS's planes, scale, offset and shape with a classic shape's"""
+    bl_idname = "object.unbound_kifs_shape"
+    bl_label = "Load KIFS Shape"
+
+    shape: bpy.props.EnumProperty(name="Shape", description="Set of folds to load", items=KIFS_SHAPE_ITEMS)
+
+    def execute(self, context):
+        set_kifs_shape(context.object.unbound, self.shape)
+        return {'FINISHED'}
+
+
+class UNBOUND_OT_kifs_plane_add(KIFSOperator, bpy.types.Operator):
+    """Add a fold plane (a copy of the active one)"""
+    bl_idname = "object.unbound_kifs_plane_add"
+    bl_label = "Add Fold Plane"
+
+    def execute(self, context):
+        props = context.object.unbound
+        if len(props.kifs_planes) >= 16:
+            self.report({'ERROR'}, "A KIFS has at most 16 fold planes")
+            return {'CANCELLED'}
+        source = props.kifs_planes[props.kifs_active_plane] if props.kifs_active_plane < len(props.kifs_planes) else None
+        p = props.kifs_planes.add()
+        if source is not None:
+            p.normal, p.offset = source.normal, source.offset
+        props.kifs_active_plane = len(props.kifs_planes) - 1
+        return {'FINISHED'}
+
+
+class UNBOUND_OT_kifs_plane_remove(KIFSOperator, bpy.types.Operator):
+    """Remove the active fold plane"""
+    bl_idname = "object.unbound_kifs_plane_remove"
+    bl_label = "Remove Fold Plane"
+
+    def execute(self, context):
+        props = context.object.unbound
+        if not 0 <= props.kifs_active_plane < len(props.kifs_planes):
+            return {'CANCELLED'}
+        props.kifs_planes.remove(props.kifs_active_plane)
+        props.kifs_active_plane = max(0, min(props.kifs_active_plane, len(props.kifs_planes) - 1))
+        return {'FINISHED'}
+
+
+class UNBOUND_OT_hybrid_step_add(bpy.types.Operator):
+    """Add an entry to the hybrid (a copy of the active one)"""
+    bl_idname = "object.unbound_hybrid_step_add"
+    bl_label = "Add Hybrid Step"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return utils.is_fractal(context.object) and context.object.unbound.kind == 'HYBRID'
+
+    def execute(self, context):
+        props = context.object.unbound
+        if len(props.hybrid_steps) >= 8:
+            self.report({'ERROR'}, "A hybrid has at most 8 entries")
+            return {'CANCELLED'}
+        source = props.hybrid_steps[props.hybrid_active_step] if props.hybrid_active_step < len(props.hybrid_steps) else None
+        e = props.hybrid_steps.add()
+        if source is not None:
+            e.formula, e.count = source.formula, source.count
+        props.hybrid_active_step = len(props.hybrid_steps) - 1
+        return {'FINISHED'}
+
+
+class UNBOUND_OT_hybrid_step_remove(bpy.types.Operator):
+    """Remove the active entry of the hybrid"""
+    bl_idname = "object.unbound_hybrid_step_remove"
+    bl_label = "Remove Hybrid Step"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return utils.is_fractal(context.object) and context.object.unbound.kind == 'HYBRID'
+
+    def execute(self, context):
+        props = context.object.unbound
+        if not 0 <= props.hybrid_active_step < len(props.hybrid_steps):
+            return {'CANCELLED'}
+        props.hybrid_steps.remove(props.hybrid_active_step)
+        props.hybrid_active_step = max(0, min(props.hybrid_active_step, len(props.hybrid_steps) - 1))
         return {'FINISHED'}
 
 
@@ -639,7 +779,8 @@ def menu_add(self, context):
 classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_use_engine, UNBOUND_OT_setup_compositing, UNBOUND_MT_fractal_presets,
            UNBOUND_MT_look_presets, UNBOUND_PT_fractal_presets, UNBOUND_PT_look_presets,
            UNBOUND_OT_fractal_preset_add, UNBOUND_OT_look_preset_add, UNBOUND_OT_color_ramp_add, UNBOUND_OT_ifs_shape, UNBOUND_OT_ifs_map_add,
-           UNBOUND_OT_ifs_map_remove)
+           UNBOUND_OT_ifs_map_remove, UNBOUND_OT_kifs_shape, UNBOUND_OT_kifs_plane_add, UNBOUND_OT_kifs_plane_remove,
+           UNBOUND_OT_hybrid_step_add, UNBOUND_OT_hybrid_step_remove)
 
 
 def register():

@@ -27,8 +27,12 @@ FRACTAL_KINDS = [
      "(analytic running-derivative estimate; empirical, marched with care)", 5),
     ('MANDELBOX', "Mandelbox", "Lowe's box fold, sphere fold and scale, Mandelbrot or Julia mode "
      "(running-scale estimate; empirical, marched with care)", 6),
+    ('KIFS', "Kaleidoscopic IFS", "Knighty's folds by planes, rotation, scale and offset: Menger sponge, "
+     "Sierpinski tetrahedron, octahedral flake or your own planes (exact running-scale bound)", 7),
+    ('HYBRID', "Hybrid", "Mandelbulb, Mandelbox and KIFS steps in turn, each a number of times (combined "
+     "running derivative; empirical, marched with care)", 8),
 ]
-EXACT_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT', 'IFS'}
+EXACT_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT', 'IFS', 'KIFS'}
 SLICED_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT', 'CUBIC_LOCUS'}
 PATH_MODES = [
     ('LINE', "Line", "c moves along a straight segment from C Start (bottom) to C End (top)", 0),
@@ -152,6 +156,38 @@ class UnboundIFSMap(bpy.types.PropertyGroup):
                                min=-0.99, max=0.99, subtype='XYZ')
 
 
+class UnboundKIFSPlane(bpy.types.PropertyGroup):
+    """One fold plane of a kaleidoscopic IFS: points with normal . z < offset are reflected in it"""
+    normal: FloatVectorProperty(name="Normal", description="Normal of the fold plane (any length but zero); "
+                                "the fold reflects points behind it to its front", size=3, default=(1.0, 0.0, 0.0),
+                                min=-1000.0, max=1000.0, soft_min=-1.0, soft_max=1.0, subtype='XYZ')
+    offset: FloatProperty(name="Offset", description="The plane is normal . z = offset (times |normal|)",
+                          default=0.0, min=-1000.0, max=1000.0, soft_min=-2.0, soft_max=2.0)
+
+
+HYBRID_FORMULAS = [
+    ('MANDELBULB', "Mandelbulb", "A Mandelbulb step with the Mandelbulb parameters", 0),
+    ('MANDELBOX', "Mandelbox", "A Mandelbox step with the Mandelbox parameters", 1),
+    ('KIFS', "KIFS", "A kaleidoscopic IFS step with the KIFS parameters", 2),
+]
+
+
+class UnboundHybridStep(bpy.types.PropertyGroup):
+    """One entry of a hybrid: a formula applied Count times before the next entry's"""
+    formula: EnumProperty(name="Formula", description="Which formula's step", items=HYBRID_FORMULAS,
+                          default='MANDELBULB')
+    count: IntProperty(name="Count", description="Steps of this formula before the next entry's", default=1,
+                       min=1, max=100)
+
+
+KIFS_SHAPES = [
+    ('SPHERE', "Sphere", "A ball of radius Size", 0),
+    ('BOX', "Box", "A cube of half-width Size", 1),
+    ('TETRAHEDRON', "Tetrahedron", "The tetrahedron of vertices Size (1, 1, 1), Size (1, -1, -1), ...", 2),
+    ('OCTAHEDRON', "Octahedron", "|x| + |y| + |z| <= Size", 3),
+]
+
+
 class UnboundObjectSettings(bpy.types.PropertyGroup):
     is_fractal: BoolProperty(name="Fractal", description="This empty is an Unbound fractal object",
                              default=False, options=set())
@@ -190,6 +226,25 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
                                 options=set())
     ifs_depth: IntProperty(name="Depth", description="Levels of the map hierarchy; the attractor is drawn as "
                            "the balls of the deepest level", default=6, min=0, max=16, soft_max=10)
+    kifs_planes: CollectionProperty(name="Fold Planes", description="KIFS: the fold planes, applied in order",
+                                    type=UnboundKIFSPlane)
+    kifs_active_plane: IntProperty(name="Active Plane", description="Plane shown for editing", default=0, min=0,
+                                   options=set())
+    kifs_scale: FloatProperty(name="Scale", description="KIFS: scale s of z <- s R fold(z) - offset (s - 1), "
+                              "above 1", default=2.0, min=1.0, max=10.0, soft_min=1.01, soft_max=4.0)
+    kifs_offset: FloatVectorProperty(name="Offset", description="KIFS: the fixed point of the scaling", size=3,
+                                     default=(1.0, 1.0, 1.0), min=-1000.0, max=1000.0, soft_min=-2.0, soft_max=2.0,
+                                     subtype='XYZ')
+    kifs_rotation: FloatVectorProperty(name="Rotation", description="KIFS: rotation after the folds (XYZ Euler)",
+                                       size=3, min=-1e6, max=1e6, subtype='EULER')
+    kifs_shape: EnumProperty(name="Shape", description="KIFS: the shape the last level is drawn as",
+                             items=KIFS_SHAPES, default='TETRAHEDRON')
+    kifs_size: FloatProperty(name="Size", description="KIFS: radius or half-width of the shape", default=1.0,
+                             min=1e-3, max=1000.0, soft_max=2.0)
+    hybrid_steps: CollectionProperty(name="Steps", description="Hybrid: the formulas applied in turn",
+                                     type=UnboundHybridStep)
+    hybrid_active_step: IntProperty(name="Active Step", description="Entry shown for editing", default=0, min=0,
+                                    options=set())
     julia_mode: BoolProperty(name="Julia Mode", description="Mandelbulb, Mandelbox: c is the constant Julia C "
                              "(else c is the point itself: the Mandelbrot form)", default=False)
     julia_c: FloatVectorProperty(name="Julia C", description="Mandelbulb, Mandelbox: the constant c of Julia mode",
@@ -321,7 +376,7 @@ UnboundViewLayerSettings = type("UnboundViewLayerSettings", (bpy.types.PropertyG
     "__doc__": "Which of Unbound's passes this view layer writes",
 })
 
-classes = (UnboundIFSMap, UnboundObjectSettings, UnboundSceneSettings, UnboundViewLayerSettings)
+classes = (UnboundIFSMap, UnboundKIFSPlane, UnboundHybridStep, UnboundObjectSettings, UnboundSceneSettings, UnboundViewLayerSettings)
 
 
 def register():

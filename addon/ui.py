@@ -75,6 +75,48 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
                 layout.column().prop(m, "rotation")
                 layout.column().prop(m, "scale")
             layout.prop(props, "ifs_depth")
+        elif props.kind in {'KIFS', 'HYBRID'}:
+            if props.kind == 'HYBRID':
+                row = layout.row()
+                row.template_list("UNBOUND_UL_hybrid_steps", "", props, "hybrid_steps", props, "hybrid_active_step",
+                                  rows=3)
+                col = row.column(align=True)
+                col.operator("object.unbound_hybrid_step_add", icon='ADD', text="")
+                col.operator("object.unbound_hybrid_step_remove", icon='REMOVE', text="")
+                if 0 <= props.hybrid_active_step < len(props.hybrid_steps):
+                    e = props.hybrid_steps[props.hybrid_active_step]
+                    layout.prop(e, "formula")
+                    layout.prop(e, "count")
+                box = layout.box()
+                box.label(text="Mandelbulb")
+                box.prop(props, "power")
+                box = layout.box()
+                box.label(text="Mandelbox")
+                for name in ("box_scale", "box_fold", "min_radius", "fixed_radius"):
+                    box.prop(props, name)
+                layout.prop(props, "julia_mode")
+                if props.julia_mode:
+                    layout.column().prop(props, "julia_c")
+            box = layout.box() if props.kind == 'HYBRID' else layout
+            if props.kind == 'HYBRID':
+                box.label(text="KIFS")
+            row = box.row()
+            row.template_list("UNBOUND_UL_kifs_planes", "", props, "kifs_planes", props, "kifs_active_plane", rows=4)
+            col = row.column(align=True)
+            col.operator("object.unbound_kifs_plane_add", icon='ADD', text="")
+            col.operator("object.unbound_kifs_plane_remove", icon='REMOVE', text="")
+            col.separator()
+            col.operator_menu_enum("object.unbound_kifs_shape", "shape", icon='DOWNARROW_HLT', text="")
+            if 0 <= props.kifs_active_plane < len(props.kifs_planes):
+                p = props.kifs_planes[props.kifs_active_plane]
+                box.column().prop(p, "normal")
+                box.prop(p, "offset")
+            box.prop(props, "kifs_scale")
+            box.column().prop(props, "kifs_offset")
+            box.column().prop(props, "kifs_rotation")
+            if props.kind == 'KIFS':
+                box.prop(props, "kifs_shape")
+                box.prop(props, "kifs_size")
         elif props.kind in {'MANDELBULB', 'MANDELBOX'}:
             if props.kind == 'MANDELBULB':
                 layout.prop(props, "power")
@@ -118,6 +160,18 @@ class UNBOUND_UL_ifs_maps(bpy.types.UIList):
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
         layout.label(text="Map %d" % (index + 1), icon='OBJECT_ORIGIN')
         layout.label(text="%.3g, %.3g, %.3g" % tuple(item.location))
+
+
+class UNBOUND_UL_kifs_planes(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        layout.label(text="Plane %d" % (index + 1), icon='MOD_MIRROR')
+        layout.label(text="%.3g, %.3g, %.3g | %.3g" % (tuple(item.normal) + (item.offset,)))
+
+
+class UNBOUND_UL_hybrid_steps(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        layout.label(text=item.bl_rna.properties["formula"].enum_items[item.formula].name)
+        layout.label(text="x %d" % item.count)
 
 
 class UNBOUND_PT_fractal_slice(FractalPanel, bpy.types.Panel):
@@ -443,7 +497,7 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
                 col.prop(props, p.toggle)
 
 
-classes = (UNBOUND_UL_ifs_maps, UNBOUND_PT_fractal_hint, UNBOUND_PT_fractal_hint_object, UNBOUND_PT_fractal,
+classes = (UNBOUND_UL_ifs_maps, UNBOUND_UL_kifs_planes, UNBOUND_UL_hybrid_steps, UNBOUND_PT_fractal_hint, UNBOUND_PT_fractal_hint_object, UNBOUND_PT_fractal,
            UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
            UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects,
            UNBOUND_PT_render_sea, UNBOUND_PT_performance, UNBOUND_PT_performance_threads, UNBOUND_PT_performance_kernel,

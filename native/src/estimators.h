@@ -369,6 +369,12 @@ static inline void de_ext(const ub_de_params *p, vf a, vf b, vf c, vf d, const i
     case UB_KIND_MANDELBOX:
         de_mandelbox(p, a, b, c, want, dist, iters, x);
         break;
+    case UB_KIND_KIFS:
+        de_kifs(p, a, b, c, want, dist, iters, x);
+        break;
+    case UB_KIND_HYBRID:
+        de_hybrid(p, a, b, c, want, dist, iters, x);
+        break;
     default:
         de_quaternion(p, 0, a, b, c, d, want, dist, iters, x);
         break;
@@ -438,7 +444,8 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, const vf q
     int quaternion = o->kind == UB_KIND_QUATERNION_JULIA || o->kind == UB_KIND_QUATERNION_MANDELBROT;
     /* Z-buffer normals come from the hit buffer; here (neighbours unknown) the distance gradient. */
     if (method == UB_NORMAL_ZBUFFER || (method == UB_NORMAL_ANALYTIC && !quaternion)
-        || (method == UB_NORMAL_GRADIENT_POTENTIAL && (o->kind == UB_KIND_IFS || o->kind == UB_KIND_MANDELBOX)))
+        || (method == UB_NORMAL_GRADIENT_POTENTIAL && (o->kind == UB_KIND_IFS || o->kind == UB_KIND_MANDELBOX
+                                                        || o->kind == UB_KIND_KIFS || o->kind == UB_KIND_HYBRID)))
         method = UB_NORMAL_GRADIENT_DISTANCE;
     if (method != UB_NORMAL_ANALYTIC) {
         const int potential = method == UB_NORMAL_GRADIENT_POTENTIAL;

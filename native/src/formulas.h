@@ -230,3 +230,226 @@ static inline void de_mandelbox(const ub_de_params *p, vf x, vf y, vf z, const i
     if (want & UB_WANT_JACOBIAN)
         ex->normal[0] = ex->normal[1] = ex->normal[2] = zero;
 }
+
+/* ------------------------------------------------------------------ kaleidoscopic IFS */
+
+/* One KIFS step's constants in kernel precision (Knighty's formulation, 2010): fold planes
+ * (unit n, offset d), the rotation R, the scale s and s o - o = o (s - 1). */
+typedef struct {
+    int planes, rotate;
+    vf n[UB_MAX_KIFS_PLANES][4];
+    vf r[9];
+    vf s, os[3];
+} ub_kifs_consts;
+
+static inline void kifs_consts(const ub_object *o, ub_kifs_consts *k)
+{
+    k->planes = o->kifs_plane_count;
+    for (int i = 0; i < k->planes; i++)
+        for (int c = 0; c < 4; c++)
+            k->n[i][c] = v_set1((float)o->kifs_planes[i][c]);
+    k->rotate = o->kifs_rotate;
+    for (int i = 0; i < 9; i++)
+        k->r[i] = v_set1((float)o->kifs_rotation[i / 3][i % 3]);
+    k->s = v_set1((float)o->kifs_scale);
+    for (int c = 0; c < 3; c++)
+        k->os[c] = v_set1((float)(o->kifs_offset[c] * (o->kifs_scale - 1.0)));
+}
+
+/* z <- s R F(z) - o (s - 1), F the folds in order: t = min(n.z - d, 0), z <- z - 2 t n (the
+ * reflection in the plane of the points with n.z < d, the others unchanged). */
+static inline void kifs_step(const ub_kifs_consts *k, vf *px, vf *py, vf *pz)
+{
+    vf x = *px, y = *py, z = *pz;
+    const vf zero = v_set1(0.0f), m2 = v_set1(-2.0f);
+    for (int i = 0; i < k->planes; i++) {
+        const vf *n = k->n[i];
+        vf t = v_mul(m2, v_min(v_sub(v_fma(n[0], x, v_fma(n[1], y, v_mul(n[2], z))), n[3]), zero));
+        x = v_fma(t, n[0], x);
+        y = v_fma(t, n[1], y);
+        z = v_fma(t, n[2], z);
+    }
+    if (k->rotate) {
+        const vf *r = k->r;
+        vf rx = v_fma(r[0], x, v_fma(r[1], y, v_mul(r[2], z)));
+        vf ry = v_fma(r[3], x, v_fma(r[4], y, v_mul(r[5], z)));
+        vf rz = v_fma(r[6], x, v_fma(r[7], y, v_mul(r[8], z)));
+        x = rx, y = ry, z = rz;
+    }
+    *px = v_fms(k->s, x, k->os[0]);
+    *py = v_fms(k->s, y, k->os[1]);
+    *pz = v_fms(k->s, z, k->os[2]);
+}
+
+/* Signed distance bound (1-Lipschitz, exact or below) of the KIFS's final shape. */
+static inline vf kifs_shape_distance(const ub_object *o, vf x, vf y, vf z)
+{
+    const vf size = v_set1((float)o->kifs_size), zero = v_set1(0.0f);
+    const vf inv_sqrt3 = v_set1(0.577350269190f);
+    switch (o->kifs_shape) {
+    case UB_KIFS_BOX: {
+        vf qx = v_sub(v_abs(x), size), qy = v_sub(v_abs(y), size), qz = v_sub(v_abs(z), size);
+        vf ox = v_max(qx, zero), oy = v_max(qy, zero), oz = v_max(qz, zero);
+        vf outside = v_sqrt(v_fma(ox, ox, v_fma(oy, oy, v_mul(oz, oz))));
+        return v_add(outside, v_min(v_max(qx, v_max(qy, qz)), zero));
+    }
+    case UB_KIFS_TETRAHEDRON: {
+        /* Faces -x-y-z, -x+y+z, x-y+z, x+y-z = size: vertices (size, size, size) and its sign flips
+         * in pairs. Each face's form has gradient length sqrt 3. */
+        vf a = v_sub(v_sub(v_sub(zero, x), y), z);
+        vf b = v_add(v_sub(y, x), z), c = v_add(v_sub(x, y), z), d = v_sub(v_add(x, y), z);
+        return v_mul(v_sub(v_max(v_max(a, b), v_max(c, d)), size), inv_sqrt3);
+    }
+    case UB_KIFS_OCTAHEDRON:
+        return v_mul(v_sub(v_add(v_add(v_abs(x), v_abs(y)), v_abs(z)), size), inv_sqrt3);
+    default:
+        return v_sub(v_sqrt(v_fma(x, x, v_fma(y, y, v_mul(z, z)))), size);
+    }
+}
+
+/* The kaleidoscopic IFS: n = max_iterations steps of f(z) = s R F(z) - o (s - 1), then the
+ * final shape S's distance bound D, divided by the running scale s^n. Exact, by this argument:
+ * every fold is 1-Lipschitz (points on one side of the plane keep their distance; a pair on
+ * opposite sides comes closer), R is an isometry, so f is s-Lipschitz and f^n s^n-Lipschitz;
+ * D is 1-Lipschitz and <= 0 on S. Hence g(p) = D(f^n(p)) / s^n is 1-Lipschitz and <= 0 on the
+ * level-n set A_n = {p : f^n(p) in S}, so g(p) <= |p - q| for every q in A_n: g never
+ * oversteps A_n, which is what is drawn. An orbit that passes the escape radius (>= rho, see
+ * scene.c) at step k < n is at least (|z_k| - rho) / s^k from A_n: f^k sends A_n into
+ * A_(n-k), which lies in |z| <= rho. Where the maps send S into itself (the Menger sponge in a
+ * box, the Sierpinski tetrahedron in a tetrahedron, the octahedral flake in an octahedron),
+ * A_n holds the limit attractor as well, so the bound is one for the attractor too. The
+ * escape count is the steps taken, the orbit trap min |z_k|; no potential. */
+static inline void de_kifs(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+                           ub_de_extra *ex)
+{
+    const ub_object *o = p->obj;
+    ub_kifs_consts k;
+    kifs_consts(o, &k);
+    const vf zero = v_set1(0.0f), one = v_set1(1.0f);
+    vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
+    vf dr = one, cnt = zero, trap = r2, gscale = one;
+    vm active = m_from_bits(0xff);
+    for (int it = 0; it < p->max_iterations; it++) {
+        vf nx = x, ny = y, nz = z;
+        kifs_step(&k, &nx, &ny, &nz);
+        dr = v_select(active, v_mul(dr, k.s), dr);
+        vf nr2 = v_fma(nx, nx, v_fma(ny, ny, v_mul(nz, nz)));
+        x = v_select(active, nx, x);
+        y = v_select(active, ny, y);
+        z = v_select(active, nz, z);
+        active = orbit_step(p, want, active, nr2, &r2, &cnt, &trap, &gscale, one);
+        if (!m_bits(active))
+            break;
+    }
+    vm escaped = v_gt(r2, p->bail2);
+    vf ball = v_sub(v_sqrt(r2), v_set1((float)o->kifs_rho));
+    vf d = v_select(escaped, ball, kifs_shape_distance(o, x, y, z));
+    /* s^n past float range (a point that never escaped over ~80 steps): a hit, never a NaN. */
+    *dist = v_select(v_lt(dr, v_set1(HUGE_VALF)), v_div(d, dr), zero);
+    *iters = cnt;
+    if (want & UB_WANT_TRAP)
+        ex->trap = v_sqrt(trap);
+    if (want & UB_WANT_POTENTIAL)
+        ex->potential = zero;
+    if (want & UB_WANT_JACOBIAN)
+        ex->normal[0] = ex->normal[1] = ex->normal[2] = zero;
+}
+
+/* ------------------------------------------------------------------ hybrids */
+
+/* A hybrid: the entries (formula, count) applied in turn, cycling, max_iterations steps in all,
+ * one orbit and one running derivative dr through them: a Mandelbulb step z <- z^n + c,
+ * dr <- n r^(n-1) dr (+1), a Mandelbox step z <- s k fold(z) + c, dr <- |s| k dr (+1), a KIFS
+ * step z <- s R F(z) - o (s - 1), dr <- s dr (no c), each with its own kind's parameters; c the
+ * point (Mandelbrot form) or julia_c. The estimate is the Mandelbulb's 0.5 log r r / dr when a
+ * Mandelbulb step is among them, else the folds' r / dr. Nothing proves either for a mixture:
+ * the kind is empirical and marched with the empirical kinds' guards. */
+static inline void de_hybrid(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+                             ub_de_extra *ex)
+{
+    const ub_object *o = p->obj;
+    const int julia = o->julia_mode;
+    const vf cx = julia ? v_set1((float)o->julia_c[0]) : x;
+    const vf cy = julia ? v_set1((float)o->julia_c[1]) : y;
+    const vf cz = julia ? v_set1((float)o->julia_c[2]) : z;
+    const vf zero = v_set1(0.0f), one = v_set1(1.0f), two = v_set1(2.0f);
+    const vf dr_add = julia ? zero : one;
+    /* Mandelbulb */
+    const vf n = v_set1((float)o->power), half_log2e = v_set1(0.721347520444f), cap = v_set1(60.0f);
+    /* Mandelbox */
+    const vf L = v_set1((float)o->box_fold), nL = v_set1((float)-o->box_fold);
+    const vf min2 = v_set1((float)(o->min_radius * o->min_radius));
+    const vf fix2 = v_set1((float)(o->fixed_radius * o->fixed_radius));
+    const vf inner = v_set1((float)(o->fixed_radius * o->fixed_radius / (o->min_radius * o->min_radius)));
+    const vf bs = v_set1((float)o->box_scale), abs_bs = v_set1((float)fabs(o->box_scale));
+    ub_kifs_consts k;
+    kifs_consts(o, &k);
+    vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
+    vf dr = one, cnt = zero, trap = r2, gscale = one;
+    vm active = m_from_bits(0xff);
+    int entry = 0, done = 0;
+    for (int it = 0; it < p->max_iterations; it++) {
+        vf nx, ny, nz, ndr;
+        switch (o->hybrid_formula[entry]) {
+        case UB_HYBRID_MANDELBULB: {
+            vm nonzero = v_gt(r2, zero);
+            vf r = v_sqrt(r2);
+            vf lg = v_mul(v_log(v_select(nonzero, r2, one)), half_log2e);
+            vf rn = v_select(nonzero, v_exp2(v_min(v_mul(n, lg), cap)), zero);
+            vf rn1 = v_select(nonzero, v_div(rn, v_select(nonzero, r, one)), zero);
+            vf rho = v_sqrt(v_fma(x, x, v_mul(y, y)));
+            vf st, ct, sp, cp;
+            v_sincos(v_mul(n, v_atan2(rho, z)), &st, &ct);
+            v_sincos(v_mul(n, v_atan2(y, x)), &sp, &cp);
+            vf rs = v_mul(rn, st);
+            nx = v_fma(rs, cp, cx);
+            ny = v_fma(rs, sp, cy);
+            nz = v_fma(rn, ct, cz);
+            ndr = v_fma(v_mul(n, rn1), dr, dr_add);
+            break;
+        }
+        case UB_HYBRID_MANDELBOX: {
+            vf fx = v_fms(two, v_min(v_max(x, nL), L), x);
+            vf fy = v_fms(two, v_min(v_max(y, nL), L), y);
+            vf fz = v_fms(two, v_min(v_max(z, nL), L), z);
+            vf f2 = v_fma(fx, fx, v_fma(fy, fy, v_mul(fz, fz)));
+            vf kk = v_select(v_lt(f2, min2), inner,
+                             v_select(v_lt(f2, fix2), v_div(fix2, v_select(v_lt(f2, min2), one, f2)), one));
+            vf sk = v_mul(bs, kk);
+            nx = v_fma(sk, fx, cx);
+            ny = v_fma(sk, fy, cy);
+            nz = v_fma(sk, fz, cz);
+            ndr = v_fma(v_mul(abs_bs, kk), dr, dr_add);
+            break;
+        }
+        default:
+            nx = x, ny = y, nz = z;
+            kifs_step(&k, &nx, &ny, &nz);
+            ndr = v_mul(dr, k.s);
+            break;
+        }
+        dr = v_select(active, ndr, dr);
+        vf nr2 = v_fma(nx, nx, v_fma(ny, ny, v_mul(nz, nz)));
+        x = v_select(active, nx, x);
+        y = v_select(active, ny, y);
+        z = v_select(active, nz, z);
+        active = orbit_step(p, want, active, nr2, &r2, &cnt, &trap, &gscale, one);
+        if (!m_bits(active))
+            break;
+        if (++done >= o->hybrid_repeat[entry]) {
+            done = 0;
+            entry = entry + 1 < o->hybrid_count ? entry + 1 : 0;
+        }
+    }
+    vm escaped = v_gt(r2, p->bail2);
+    vf r = v_sqrt(r2);
+    vf est = o->hybrid_has_bulb ? v_div(v_mul(v_mul(r, v_log(r2)), v_set1(0.25f)), dr) : v_div(r, dr);
+    *dist = v_select(m_and(escaped, v_lt(est, v_set1(HUGE_VALF))), est, zero);
+    *iters = cnt;
+    if (want & UB_WANT_TRAP)
+        ex->trap = v_sqrt(trap);
+    if (want & UB_WANT_POTENTIAL)
+        ex->potential = zero;
+    if (want & UB_WANT_JACOBIAN)
+        ex->normal[0] = ex->normal[1] = ex->normal[2] = zero;
+}

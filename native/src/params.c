@@ -28,7 +28,7 @@
 
 
 const char *const ub_kind_names[] = {"quaternion_julia", "quaternion_mandelbrot", "julia_stack", "cubic_locus",
-                                     "ifs", "mandelbulb", "mandelbox", NULL};
+                                     "ifs", "mandelbulb", "mandelbox", "kifs", "hybrid", NULL};
 const char *const ub_isa_names[] = {"auto", "avx2", "portable", NULL};
 static const char *const threshold_modes[] = {"pixel", "fixed", NULL};
 static const char *const normal_methods[] = {"gradient_distance", "gradient_potential", "zbuffer", "analytic",
@@ -39,6 +39,7 @@ static const char *const light_types[] = {"point", "sun", "spot", "area", NULL};
 static const char *const shadow_modes[] = {"none", "hard", "soft", NULL};
 static const char *const panorama_types[] = {"none", "equirectangular", "fisheye_equidistant", "fisheye_equisolid",
                                              "mirrorball", NULL};
+static const char *const kifs_shapes[] = {"sphere", "box", "tetrahedron", "octahedron", NULL};
 
 /* ------------------------------------------------------------------ object */
 
@@ -51,6 +52,11 @@ static const double default_maps[48] = {
     0.5, 0, 0, -0.5, 0, 0.5, 0, 0.5,   0, 0, 0.5, -0.5,
     0.5, 0, 0, -0.5, 0, 0.5, 0, -0.5,  0, 0, 0.5, 0.5,
 };
+
+/* KIFS: the Sierpinski tetrahedron's three folds (Knighty's x + y >= 0, x + z >= 0, y + z >= 0);
+ * hybrid: one Mandelbulb step, one Mandelbox step. */
+static const double default_kifs_planes[12] = {1, 1, 0, 0, 1, 0, 1, 0, 0, 1, 1, 0};
+static const double default_hybrid_steps[4] = {0, 1, 1, 1};
 
 #define OBJ ub_object_input
 static const ub_param object_rows[] = {
@@ -101,6 +107,15 @@ static const ub_param object_rows[] = {
     REAL(OBJ, box_fold, 1e-3, 100.0, D(1.0), "Mandelbox: box fold limit L (coordinates beyond +-L are reflected)"),
     REAL(OBJ, min_radius, 1e-3, 100.0, D(0.5), "Mandelbox: sphere fold minimum radius (linear scale inside)"),
     REAL(OBJ, fixed_radius, 1e-3, 100.0, D(1.0), "Mandelbox: sphere fold fixed radius (inversion inside), >= min_radius"),
+    LIST(OBJ, kifs_planes, 1, 4, -1e3, 1e3, 0, UB_MAX_KIFS_PLANES, default_kifs_planes, 3, 0,
+         "KIFS: fold planes (nx, ny, nz, d) in order, each reflecting z to n.z >= d (n normalised)"),
+    REAL(OBJ, kifs_scale, 1.0, 10.0, D(2.0), "KIFS: scale s of z <- s R fold(z) - o (s - 1), s > 1"),
+    VECTOR(OBJ, kifs_offset, 3, -1e3, 1e3, D(1.0, 1.0, 1.0), 0, "KIFS: offset o, the fixed point of the scaling"),
+    VECTOR(OBJ, kifs_rotation, 3, -1e6, 1e6, NULL, 0, "KIFS: rotation R after the folds, XYZ Euler angles, radians"),
+    CHOICE(OBJ, kifs_shape, kifs_shapes, D(UB_KIFS_TETRAHEDRON), "KIFS: the shape the last level is drawn as"),
+    REAL(OBJ, kifs_size, 1e-3, 1e3, D(1.0), "KIFS: radius (sphere, octahedron) or half-width (box, tetrahedron) of the shape"),
+    LIST(OBJ, hybrid_steps, 1, 2, 0.0, 10000.0, 1, UB_MAX_HYBRID_STEPS, default_hybrid_steps, 2, 0,
+         "hybrid: (formula, count) entries applied in turn, formula 0 Mandelbulb, 1 Mandelbox, 2 KIFS"),
 };
 #undef OBJ
 const ub_param_section ub_object_section = {"object", ROWS(object_rows), sizeof(ub_object_input)};

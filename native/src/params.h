@@ -92,6 +92,13 @@ typedef struct {
     double julia_c[3];
     double power;
     double box_scale, box_fold, min_radius, fixed_radius;
+    int kifs_planes_count;
+    double kifs_planes[UB_MAX_KIFS_PLANES][4];
+    double kifs_scale, kifs_offset[3], kifs_rotation[3];
+    int kifs_shape;
+    double kifs_size;
+    int hybrid_steps_count;
+    double hybrid_steps[UB_MAX_HYBRID_STEPS][2];
 } ub_object_input;
 
 typedef struct {

@@ -200,6 +200,102 @@ static const char *mandelbox_bound(ub_object *obj)
     return NULL;
 }
 
+/* The KIFS's ball and escape radius. A fold in the plane n.z = d (|n| = 1) moves z with
+ * n.z < d to z' = z + 2 (d - n.z) n, |z'|^2 = |z|^2 + 4 d (d - n.z): never shorter for d >= 0,
+ * at most 2|d| shorter for d < 0 (the triangle inequality); R keeps |z|. So with
+ * delta = 2 sum over d < 0 of |d|, |f(z)| >= s (|z| - delta) - |o| (s - 1), and
+ * rho = (s delta + |o| (s - 1)) / (s - 1) gives |f(z)| - rho >= s (|z| - rho): past rho an
+ * orbit grows geometrically. The final shape lies in |z| <= r_S (sphere, octahedron: size;
+ * box, tetrahedron: sqrt 3 size), so every level's set A_n = {p : f^n(p) in S} lies in
+ * |z| <= max(rho, r_S): proven for every fold set, rotation and offset. That radius is the
+ * ball and the least escape radius (formulas.h's escaped-lane bound subtracts it). */
+static const char *kifs_bound(ub_object *obj)
+{
+    double s = obj->kifs_scale;
+    if (!(s > 1.0 + 1e-6))
+        return "a KIFS needs kifs_scale > 1";
+    double delta = 0.0;
+    for (int i = 0; i < obj->kifs_plane_count; i++) {
+        double *pl = obj->kifs_planes[i];
+        double len = sqrt(pl[0] * pl[0] + pl[1] * pl[1] + pl[2] * pl[2]);
+        if (!(len > 1e-9))
+            return "a KIFS fold plane needs a non-zero normal";
+        for (int c = 0; c < 4; c++)
+            pl[c] /= len; /* the plane n.z = d unchanged, now with |n| = 1 */
+        if (pl[3] < 0.0)
+            delta -= 2.0 * pl[3];
+    }
+    const double *o = obj->kifs_offset;
+    double on = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
+    double rho = (s * delta + on * (s - 1.0)) / (s - 1.0);
+    double shape = obj->kifs_shape == UB_KIFS_BOX || obj->kifs_shape == UB_KIFS_TETRAHEDRON ? sqrt(3.0) * obj->kifs_size
+                                                                                            : obj->kifs_size;
+    obj->kifs_rho = fmax(rho, shape);
+    obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+    obj->bound_radius = obj->kifs_rho;
+    obj->bailout = fmax(obj->bailout, obj->kifs_rho);
+    return NULL;
+}
+
+/* Blender's XYZ Euler rotation R = Rz Ry Rx (ub_sin, ub_cos: the same bits everywhere). */
+static void euler_xyz(const double e[3], double r[3][3])
+{
+    double cx = ub_cos(e[0]), sx = ub_sin(e[0]), cy = ub_cos(e[1]), sy = ub_sin(e[1]), cz = ub_cos(e[2]),
+           sz = ub_sin(e[2]);
+    double m[3][3] = {{cy * cz, sx * sy * cz - cx * sz, cx * sy * cz + sx * sz},
+                      {cy * sz, sx * sy * sz + cx * cz, cx * sy * sz - sx * cz},
+                      {-sy, sx * cy, cx * cy}};
+    memcpy(r, m, sizeof m);
+}
+
+/* The hybrid's entries, and its ball and escape radius: the largest of its formulas' (each
+ * computed as for its own kind). Not proven for the mixture (the formulas' escape arguments use
+ * different norms and constants): checked by sampling, float64 orbits from just outside escape
+ * (tests/native/test_kifs_hybrid.py). */
+static const char *hybrid_bound(ub_object *obj)
+{
+    int used[3] = {0, 0, 0}, total = 0;
+    for (int i = 0; i < obj->hybrid_count; i++) {
+        int f = obj->hybrid_formula[i], n = obj->hybrid_repeat[i];
+        if (f < 0 || f > 2)
+            return "hybrid_steps formulas are 0 (Mandelbulb), 1 (Mandelbox) or 2 (KIFS)";
+        if (n < 1)
+            return "hybrid_steps counts must be whole numbers >= 1";
+        used[f] = 1;
+        total += n;
+    }
+    if (total < 1)
+        return "a hybrid needs at least one step";
+    obj->hybrid_has_bulb = used[UB_HYBRID_MANDELBULB];
+    double user = obj->bailout, radius = 0.0, bail = user;
+    if (used[UB_HYBRID_MANDELBULB]) {
+        obj->bailout = user;
+        mandelbulb_bound(obj);
+        radius = fmax(radius, obj->bound_radius);
+        bail = fmax(bail, obj->bailout);
+    }
+    if (used[UB_HYBRID_MANDELBOX]) {
+        obj->bailout = user;
+        const char *err = mandelbox_bound(obj);
+        if (err)
+            return err;
+        radius = fmax(radius, obj->bound_radius);
+        bail = fmax(bail, obj->bailout);
+    }
+    if (used[UB_HYBRID_KIFS]) {
+        obj->bailout = user;
+        const char *err = kifs_bound(obj);
+        if (err)
+            return err;
+        radius = fmax(radius, obj->bound_radius);
+        bail = fmax(bail, obj->bailout);
+    }
+    obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+    obj->bound_radius = radius;
+    obj->bailout = fmax(bail, radius);
+    return NULL;
+}
+
 /* The kind's bounding ball (section 3.4), escape radius and exactness. */
 static const char *prepare_kind(ub_object *obj)
 {
@@ -211,6 +307,12 @@ static const char *prepare_kind(ub_object *obj)
     case UB_KIND_MANDELBOX:
         obj->exact = 0;
         return mandelbox_bound(obj);
+    case UB_KIND_KIFS:
+        obj->exact = 1;
+        return kifs_bound(obj);
+    case UB_KIND_HYBRID:
+        obj->exact = 0;
+        return hybrid_bound(obj);
     case UB_KIND_QUATERNION_MANDELBROT:
         /* |mu| > 2 escapes, and once |z| > 2 >= |mu| the orbit escapes. */
         slice_ball(obj, 2.0);
@@ -272,7 +374,7 @@ const char *ub_object_prepare(ub_object *obj, double theta, const double slice_b
     static const double identity_basis[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
     static const double zero_origin[4] = {0, 0, 0, 0};
     if (obj->kind == UB_KIND_JULIA_STACK || obj->kind == UB_KIND_IFS || obj->kind == UB_KIND_MANDELBULB
-        || obj->kind == UB_KIND_MANDELBOX) {
+        || obj->kind == UB_KIND_MANDELBOX || obj->kind == UB_KIND_KIFS || obj->kind == UB_KIND_HYBRID) {
         /* Three-dimensional kinds: the "slice" is object space itself. */
         slice_basis = identity_basis;
         slice_origin = zero_origin;
@@ -393,6 +495,21 @@ const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
     obj->box_fold = in->box_fold;
     obj->min_radius = in->min_radius;
     obj->fixed_radius = in->fixed_radius;
+    obj->kifs_plane_count = in->kifs_planes_count;
+    memcpy(obj->kifs_planes, in->kifs_planes, sizeof obj->kifs_planes);
+    obj->kifs_scale = in->kifs_scale;
+    memcpy(obj->kifs_offset, in->kifs_offset, sizeof obj->kifs_offset);
+    euler_xyz(in->kifs_rotation, obj->kifs_rotation);
+    obj->kifs_rotate = in->kifs_rotation[0] != 0.0 || in->kifs_rotation[1] != 0.0 || in->kifs_rotation[2] != 0.0;
+    obj->kifs_shape = in->kifs_shape;
+    obj->kifs_size = in->kifs_size;
+    obj->hybrid_count = in->hybrid_steps_count;
+    for (int i = 0; i < in->hybrid_steps_count; i++) {
+        double f = in->hybrid_steps[i][0], n = in->hybrid_steps[i][1];
+        /* Whole numbers only: a fraction is refused by hybrid_bound (-1). */
+        obj->hybrid_formula[i] = f == floor(f) ? (int)f : -1;
+        obj->hybrid_repeat[i] = n == floor(n) ? (int)n : -1;
+    }
     return ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
 }
 

@@ -24,6 +24,8 @@
 #define UB_MAX_PATH 256        /* points of a Julia stack's c-path */
 #define UB_MAX_IFS_MAPS 32
 #define UB_MAX_IFS_DEPTH 16
+#define UB_MAX_KIFS_PLANES 16    /* fold planes of a kaleidoscopic IFS */
+#define UB_MAX_HYBRID_STEPS 8    /* (formula, count) entries of a hybrid */
 
 /* Depth written for background pixels: the value Cycles writes into its Depth pass for a miss. */
 #define UB_BACKGROUND_DEPTH 1.0e10f
@@ -76,6 +78,8 @@ typedef enum {
     UB_KIND_IFS,                   /* attractor of 3-D affine maps */
     UB_KIND_MANDELBULB,            /* triplex z^n + c (issue 22; empirical) */
     UB_KIND_MANDELBOX,             /* box fold, sphere fold, scale (issue 22; empirical) */
+    UB_KIND_KIFS,                  /* kaleidoscopic IFS: plane folds, rotation, scale (issue 22; exact) */
+    UB_KIND_HYBRID,                /* Mandelbulb, Mandelbox and KIFS steps in turn (issue 22; empirical) */
     UB_KIND_COUNT
 } ub_fractal_kind;
 
@@ -164,7 +168,24 @@ typedef struct {
     double julia_c[3];
     double power;
     double box_scale, box_fold, min_radius, fixed_radius;
+    /* KIFS (formulas.h): per step the fold planes in order (unit normal n, offset d: z reflected
+     * to n.z >= d), the rotation, then z <- s z - o (s - 1); the final shape (ub_kifs_shape) of
+     * size kifs_size; derived: the rotation matrix, rho (a ball |z| <= rho holds every level's
+     * set, and an orbit once past it escapes; see kifs_bound in scene.c). */
+    int kifs_plane_count;
+    double kifs_planes[UB_MAX_KIFS_PLANES][4];
+    double kifs_scale, kifs_offset[3], kifs_rotation[3][3];
+    int kifs_rotate, kifs_shape;
+    double kifs_size, kifs_rho;
+    /* Hybrid: entries (formula, count), formula a ub_hybrid_formula, applied in turn, cycling,
+     * for max_iterations steps in all; each formula's own parameters above. */
+    int hybrid_count;
+    int hybrid_formula[UB_MAX_HYBRID_STEPS], hybrid_repeat[UB_MAX_HYBRID_STEPS];
+    int hybrid_has_bulb;
 } ub_object;
+
+typedef enum { UB_KIFS_SPHERE = 0, UB_KIFS_BOX, UB_KIFS_TETRAHEDRON, UB_KIFS_OCTAHEDRON } ub_kifs_shape;
+typedef enum { UB_HYBRID_MANDELBULB = 0, UB_HYBRID_MANDELBOX, UB_HYBRID_KIFS } ub_hybrid_formula;
 
 typedef enum { UB_LIGHT_POINT = 0, UB_LIGHT_SUN, UB_LIGHT_SPOT, UB_LIGHT_AREA } ub_light_type;
 

@@ -145,7 +145,8 @@ def test_every_bundled_preset_applies_and_renders(run_bpy, tmp_path):
     print(results)
     assert len(results) >= 15, sorted(results)
     assert {res["kind"] for res in results.values()} == {"QUATERNION_JULIA", "QUATERNION_MANDELBROT", "JULIA_STACK",
-                                                          "CUBIC_LOCUS", "IFS", "MANDELBULB", "MANDELBOX"}
+                                                          "CUBIC_LOCUS", "IFS", "MANDELBULB", "MANDELBOX", "KIFS",
+                                                          "HYBRID"}
     for name, res in results.items():
         assert res["status"] == ["FINISHED"], (name, res)
         assert res["kind"] == res["wanted_kind"], (name, res)

@@ -14,6 +14,10 @@ ADDON_ONLY = {
         "path_curve": "path (export.c_path)",
         "ifs_maps": "maps (export.ifs_map_rows)",
         "ifs_active_map": "the map shown for editing",
+        "kifs_planes": "kifs_planes (export.object_parameters: normal + offset)",
+        "kifs_active_plane": "the plane shown for editing",
+        "hybrid_steps": "hybrid_steps (export.object_parameters: formula index, count)",
+        "hybrid_active_step": "the entry shown for editing",
         "color_ramp_texture": "color_ramp (export.ramp_table)",
     },
     "scene": {
