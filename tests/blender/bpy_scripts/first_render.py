@@ -63,3 +63,17 @@ def first_render(S, mod, kind='QUATERNION_JULIA', percentage=100, keep=None, sce
         shutil.copy(out["png"], keep)
     S.report(**out)
 
+
+
+def frame_in_camera_centres(S, mod):
+    """Frame in Camera on a fractal off to the side and far away: afterwards its silhouette sits in
+    the middle of the camera's frame and fills it (a small render's box of hit pixels)."""
+    scene, ob = startup_scene_add(mod)
+    ob.location = (3.0, 4.0, -1.0)
+    ob.scale = (0.3, 0.3, 0.3)
+    bpy.context.view_layer.update()
+    before = mod.operators.silhouette(scene, ob)
+    result = bpy.ops.object.unbound_frame_camera()
+    bpy.context.view_layer.update()
+    after = mod.operators.silhouette(scene, ob)
+    S.report(result=list(result), before=before, after=after, scale=list(ob.scale))
