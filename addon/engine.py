@@ -114,6 +114,56 @@ def memory_preflight(width, height, wanted, views=1):
                           len(wanted), "" if len(wanted) == 1 else "es", available / 1e9, advice))
 
 
+# A render of several samples shows each sample in the Image Editor as it finishes
+# (RenderEngine.update_result, Blender copying the result for display), as long as those uploads
+# take at most this share of the render's time so far: a 1080p render whose samples take longer
+# than a few tenths of a second shows every one, and a quick small one is never slowed by them.
+UPDATE_SHARE = 0.05
+# The stats line is refreshed at most this often while a sample renders (seconds).
+STATS_INTERVAL = 0.25
+
+
+def clock(seconds):
+    """Seconds as Blender and Cycles print them in the stats line: 00:01.23, 1:02:03.45."""
+    minutes, rest = divmod(max(float(seconds), 0.0), 60.0)
+    hours, minutes = divmod(int(minutes), 60)
+    return "%d:%02d:%05.2f" % (hours, minutes, rest) if hours else "%02d:%05.2f" % (minutes, rest)
+
+
+class Progress:
+    """The progress bar and the stats line of a render of `views` views of `samples` samples:
+    Sample k/N, and the time remaining, extrapolated from the fraction done as Cycles does."""
+
+    def __init__(self, engine, label, views, samples):
+        self.engine, self.label, self.views, self.samples = engine, label, views, samples
+        self.started = time.perf_counter()
+        self.shown = -1.0
+
+    def update(self, view, sample, fraction, force=False):
+        """`fraction` of sample `sample` (from 0) of view `view` done; True when the user cancelled."""
+        done = (view + (sample + fraction) / self.samples) / self.views
+        self.engine.update_progress(done)
+        now = time.perf_counter()
+        if force or now - self.shown >= STATS_INTERVAL:
+            self.shown = now
+            elapsed = now - self.started
+            text = "Unbound | %s | Sample %d/%d" % (self.label, min(sample + 1, self.samples), self.samples)
+            if self.views > 1:
+                text += " | View %d/%d" % (view + 1, self.views)
+            if done > 0.0 and elapsed > 0.0:
+                text += " | Remaining %s" % clock(elapsed * (1.0 - done) / done)
+            self.engine.update_stats("", text)
+        return self.engine.test_break()
+
+
+def normalised(buffer, native, samples_done):
+    """A pass of the running sum as the mean of the samples done: exactly what a render of that
+    many samples holds (its last sample multiplies the sum by the float32 1 / count, kernel.h)."""
+    if samples_done <= 1 or native in passes.SAMPLE_ZERO:  # (0: a first sample cut short)
+        return buffer
+    return buffer * (np.float32(1.0) / np.float32(samples_done))
+
+
 def _render(engine, depsgraph):
     scene = depsgraph.scene
     view_layer = depsgraph.view_layer
@@ -128,54 +178,100 @@ def _render(engine, depsgraph):
     memory_preflight(w, h, wanted, max(len(views), 1))
     frame = scene.frame_current
     label = "Frame %d | %s" % (frame, view_layer.name)
+    samples = int(shading.get("samples", 1))
     engine.update_stats("", "Unbound | %s | %d fractal object%s" % (label, len(objects), "" if len(objects) == 1 else "s"))
     # The result covers the window: Blender places it in the full frame (or crops to it). It holds
     # the passes registered when the render started; a handler may have toggled one since (an
     # animation's frame_change_pre): exactly the result's passes are rendered and written.
     result = engine.begin_result(0, 0, w, h, layer=view_layer.name)
-    cancelled = True
+    # A failure discards the result (end_result(cancel=True)): a failed frame is never shown or
+    # saved as rendered. A cancel (Esc) keeps what was rendered, as Cycles does: the samples done,
+    # and of a first sample cut short the tiles done (the others transparent black).
+    keep = False
     try:
         layer = result.layers[0]
         views = [v.name for v in result.views] or [""]
         names = {p.name for p in layer.passes}
         present = [p for p in passes.PASSES if p.name in names]
-        buffers = {p.native: np.empty((h, w, p.channels), np.float32) for p in present}
+        # Zeros: what a cancelled first sample did not reach stays transparent black.
+        buffers = {p.native: np.zeros((h, w, p.channels), np.float32) for p in present}
         # Depth is always rendered: the core's precision check reads it (one float per pixel).
-        buffers.setdefault("depth", np.empty((h, w, 1), np.float32))
+        buffers.setdefault("depth", np.zeros((h, w, 1), np.float32))
+        # The sum of the samples done, kept while the next one is added (a cancel mid-sample leaves
+        # the buffers half summed): only the averaged passes, only with several samples.
+        summed = [n for n in buffers if n not in passes.SAMPLE_ZERO] if samples > 1 else []
+        backup = {n: np.empty_like(buffers[n]) for n in summed}
+        progress = Progress(engine, label, len(views), samples)
+        totals = dict(rays=0, steps=0, iterations=0, seconds=0.0)
+        options = dict(window=window, shading=shading, poll_interval=0.02, **export.render_options(scene))
         started = time.perf_counter()
+        uploading = 0.0
         stats = None
+        cancelled = False
+
+        def write(view, done):
+            for p in present:
+                found = layer.passes.find_by_name(p.name, view)
+                if found is None:
+                    raise RenderError("Blender's result has no pass %s for view '%s'" % (p.name, view))
+                # After the last sample the buffers hold the mean already (the core divided).
+                values = buffers[p.native] if done == samples else normalised(buffers[p.native], p.native, done)
+                found.rect.foreach_set(values.ravel())
+
         for index, view in enumerate(views):
             if len(views) > 1:
                 # Stereo 3D / multiview: each view through its own camera (its eye's matrix and
                 # shift), as Cycles renders them.
                 engine.active_view_set(view)
                 camera = export.camera_description(engine, depsgraph, width, height)
+                if index:
+                    for b in buffers.values():
+                        b.fill(0.0)
+            done = 0
+            for sample in range(samples):
+                if sample:
+                    for n in summed:
+                        np.copyto(backup[n], buffers[n])
 
-            def progress(fraction, index=index):
-                engine.update_progress((index + fraction) / len(views))
-                return engine.test_break()
+                def poll(fraction, index=index, sample=sample):
+                    return progress.update(index, sample, fraction)
 
-            stats = core.render(camera, objects, buffers, window=window, shading=shading, progress=progress,
-                                poll_interval=0.02, **export.render_options(scene))
-            LAST_STATS.clear()
-            LAST_STATS.update(stats)
-            if stats["cancelled"]:
+                stats = core.render(camera, objects, buffers, progress=poll,
+                                    sample_range=(sample, 1) if samples > 1 else None, **options)
+                for key in totals:
+                    totals[key] += stats[key]
+                if stats["cancelled"]:
+                    cancelled = True
+                    # Back to the samples done (a first sample cut short stays as far as it got).
+                    for n in summed if sample else ():
+                        np.copyto(buffers[n], backup[n])
+                    break
+                done = sample + 1
+                progress.update(index, sample + 1 if done < samples else sample, 0.0 if done < samples else 1.0,
+                                force=True)
+                if done < samples and uploading <= UPDATE_SHARE * (time.perf_counter() - started):
+                    # The Image Editor shows the samples done while the next ones render.
+                    t0 = time.perf_counter()
+                    write(view, done)
+                    engine.update_result(result)
+                    uploading += time.perf_counter() - t0
+            write(view, done)
+            if cancelled:
                 break
-            for p in present:
-                found = layer.passes.find_by_name(p.name, view)
-                if found is None:
-                    raise RenderError("Blender's result has no pass %s for view '%s'" % (p.name, view))
-                found.rect.foreach_set(buffers[p.native].ravel())
-        cancelled = stats["cancelled"]
+        stats = dict(stats, cancelled=cancelled, samples_done=done, **totals)
+        LAST_STATS.clear()
+        LAST_STATS.update(stats)
+        keep = True
     finally:
-        engine.end_result(result, cancel=cancelled)
-    if stats["cancelled"]:
-        engine.update_stats("", "Unbound | %s | cancelled" % label)
+        engine.end_result(result, cancel=not keep)
+    if cancelled:
+        engine.update_stats("", "Unbound | %s | cancelled after %d of %d samples (kept)" % (label, done, samples))
         return
     warning = precision_warning(core, stats)
     if warning:
         engine.report({'WARNING'}, "Unbound: " + warning)
     elapsed = time.perf_counter() - started
     engine.update_progress(1.0)
-    engine.update_stats("", "Unbound | %s | %.2f s | %.1f Mrays/s | %s, %d threads" % (
-        label, elapsed, stats["rays"] / max(stats["seconds"], 1e-9) / 1e6, stats["simd"], stats["threads"]))
+    engine.update_stats("", "Unbound | %s | %s | %d sample%s | %.1f Mrays/s | %s, %d threads" % (
+        label, clock(elapsed), samples, "" if samples == 1 else "s",
+        stats["rays"] / max(stats["seconds"], 1e-9) / 1e6, stats["simd"], stats["threads"]))

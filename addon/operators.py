@@ -4,11 +4,11 @@ import math
 import os
 
 import bpy
-from mathutils import Euler
+from mathutils import Euler, Vector
 from bl_operators.presets import AddPresetBase
 from bl_ui.utils import PresetPanel
 
-from . import passes, utils
+from . import export, passes, utils
 from .properties import (FRACTAL_KINDS, MU_STEP, UnboundObjectSettings, UnboundSceneSettings, _sync_display_size,
                          display_radius)
 
@@ -324,18 +324,267 @@ class UNBOUND_OT_color_ramp_add(bpy.types.Operator):
         return utils.is_fractal(context.object)
 
     def execute(self, context):
-        props = context.object.unbound
-        tex = bpy.data.textures.new("%s Ramp" % context.object.name, 'BLEND')
-        tex.use_color_ramp = True
-        ramp = tex.color_ramp
-        ramp.elements[0].color = (0.05, 0.1, 0.4, 1.0)
-        ramp.elements[1].color = (1.0, 0.85, 0.4, 1.0)
-        mid = ramp.elements.new(0.5)
-        mid.color = (0.8, 0.2, 0.1, 1.0)
-        props.color_ramp_texture = tex
-        if props.color_mode == 'BASE':
-            props.color_mode = 'ORBIT_TRAP'
+        add_color_ramp(context.object)
         return {'FINISHED'}
+
+
+def add_color_ramp(ob):
+    """A new colour ramp texture on `ob` (deep blue, red, gold), orbit-trap colouring if it had one
+    colour."""
+    props = ob.unbound
+    tex = bpy.data.textures.new("%s Ramp" % ob.name, 'BLEND')
+    tex.use_color_ramp = True
+    ramp = tex.color_ramp
+    ramp.elements[0].color = (0.05, 0.1, 0.4, 1.0)
+    ramp.elements[1].color = (1.0, 0.85, 0.4, 1.0)
+    mid = ramp.elements.new(0.5)
+    mid.color = (0.8, 0.2, 0.1, 1.0)
+    props.color_ramp_texture = tex
+    if props.color_mode == 'BASE':
+        props.color_mode = 'ORBIT_TRAP'
+    return tex
+
+
+# -- Frame in Camera ---------------------------------------------------------------------------
+
+def bounding_sphere(ob):
+    """(centre, radius) in world space of the core's bounding ball of `ob`'s set; None while its
+    settings are invalid."""
+    try:
+        bound = utils.native().describe(export.object_parameters(ob, with_ramp=False))
+    except (ImportError, ValueError, TypeError, export.RenderError):
+        return None
+    m = ob.matrix_world
+    scale = max(abs(v) for v in m.to_scale())
+    return m @ Vector(bound["bound_center"]), max(bound["bound_radius"], 0.0) * scale
+
+
+def camera_frustum(scene, cam_ob):
+    """The camera's view as planes [(inward normal, point)] through the frame's four edges (the
+    render's aspect, shift and sensor fit, as the camera draws its frame), the eye, the direction
+    through the frame's centre, and whether it is a perspective camera."""
+    m = cam_ob.matrix_world
+    corners = [m @ v for v in cam_ob.data.view_frame(scene=scene)]
+    eye = m.translation.copy()
+    forward = (m.to_3x3() @ Vector((0.0, 0.0, -1.0))).normalized()
+    centre = sum(corners, Vector()) / 4.0
+    perspective = cam_ob.data.type == 'PERSP'
+    planes = []
+    for a, b in zip(corners, corners[1:] + corners[:1]):
+        n = (a - eye).cross(b - eye) if perspective else (b - a).cross(forward)
+        if n.length == 0.0:
+            return None
+        n.normalize()
+        if n.dot(centre - a) < 0.0:
+            n = -n
+        planes.append((n, a))
+    through = (centre - eye).normalized() if perspective else forward
+    return planes, eye, through, forward, perspective
+
+
+def frame_in_camera(scene, ob, fill=0.9, centre=True):
+    """Scale `ob` (about its origin) so that its bounding sphere fills `fill` of the active
+    camera's view: the sphere touches the nearest frame edges when fill is 1. With `centre`, first
+    move it onto the line through the frame's centre, at its depth (or in front of the camera if it
+    was behind). Returns a message when it cannot (no camera, the set behind it), else None."""
+    cam_ob = scene.camera
+    if cam_ob is None or cam_ob.type != 'CAMERA':
+        return "the scene has no active camera"
+    if cam_ob.data.type not in {'PERSP', 'ORTHO'}:
+        return "Frame in Camera needs a perspective or orthographic camera"
+    frustum = camera_frustum(scene, cam_ob)
+    sphere = bounding_sphere(ob)
+    if frustum is None or sphere is None:
+        return "the camera's frame or the fractal's settings are invalid"
+    planes, eye, through, forward, perspective = frustum
+    c, r = sphere
+    near = cam_ob.data.clip_start
+    depth = (c - eye).dot(forward)
+    if centre:
+        if depth <= near + r:
+            depth = max((c - eye).length, near + 4.0 * max(r, 1e-6))
+        if perspective:
+            target = eye + through * (depth / through.dot(forward))
+        else:  # the line through the frame's centre, along the axis
+            target = planes_centre(planes, eye, forward) + forward * depth
+        matrix = ob.matrix_world.copy()
+        matrix.translation = matrix.translation + (target - c)
+        ob.matrix_world = matrix  # Blender derives location from it, parents included
+        bpy.context.view_layer.update()
+        c = target
+    elif depth <= near:
+        return "the fractal is behind the camera"
+    if min(n.dot(c - a) for n, a in planes) <= 0.0:
+        return "the fractal is outside the camera's view"
+    origin = ob.matrix_world.translation.copy()
+    factor = 1.0
+    for _ in range(6):  # the sphere's centre moves with the scale unless it is the object's origin
+        cf = origin + (c - origin) * factor
+        room = min(n.dot(cf - a) for n, a in planes)
+        if perspective:
+            room = min(room, (cf - eye).dot(forward) - near)
+        if room <= 0.0 or r * factor <= 0.0:
+            break
+        factor *= fill * room / (r * factor)
+    if not (factor > 0.0) or not math.isfinite(factor):
+        return "the fractal cannot be framed from here"
+    ob.scale = ob.scale * factor
+    # The bounding sphere is the core's conservative bound, often much larger than the set (the
+    # default Julia set fills a tenth of the frame inside it): then fit what the camera sees of
+    # the set itself, from a small render through the camera.
+    for _ in range(3):
+        bpy.context.view_layer.update()
+        box = silhouette(scene, ob)
+        if box is None:
+            break
+        x0, y0, x1, y1 = box
+        ox, oy = camera_ndc(scene, cam_ob, ob.matrix_world.translation)
+        if centre:
+            # Move the silhouette's centre to the frame's centre, at the set's depth.
+            at = bounding_sphere(ob)[0]
+            shift = ndc_to_world(scene, cam_ob, (0.0, 0.0), at) - ndc_to_world(scene, cam_ob, ((x0 + x1) / 2,
+                                                                                               (y0 + y1) / 2), at)
+            matrix = ob.matrix_world.copy()
+            matrix.translation = matrix.translation + shift
+            ob.matrix_world = matrix
+            x0, x1, y0, y1 = x0 - (x0 + x1) / 2, x1 - (x0 + x1) / 2, y0 - (y0 + y1) / 2, y1 - (y0 + y1) / 2
+            ox, oy = camera_ndc(scene, cam_ob, ob.matrix_world.translation)
+        # Scaling about the origin (ox, oy) moves each point away from it by the factor.
+        limits = []
+        for lo, hi, o in ((x0, x1, ox), (y0, y1, oy)):
+            if hi > o + 1e-6:
+                limits.append((fill - o) / (hi - o))
+            if lo < o - 1e-6:
+                limits.append((-fill - o) / (lo - o))
+        k = min(limits) if limits else 1.0
+        if not (k > 0.0) or not math.isfinite(k):
+            break
+        ob.scale = ob.scale * k
+        if abs(k - 1.0) < 0.02:
+            break
+    return None
+
+
+MASK_SIZE = 160   # pixels across the silhouette render of Frame in Camera
+
+
+def silhouette(scene, ob):
+    """The box (x0, y0, x1, y1), in the camera frame's normalised coordinates (-1 .. 1), of what
+    the camera sees of `ob`'s set: a MASK_SIZE-pixel render of its depth; None if nothing."""
+    import numpy as np
+    r = scene.render
+    aspect = (r.resolution_x * r.pixel_aspect_x) / max(r.resolution_y * r.pixel_aspect_y, 1e-9)
+    w, h = (MASK_SIZE, max(int(round(MASK_SIZE / aspect)), 8)) if aspect >= 1.0 else \
+        (max(int(round(MASK_SIZE * aspect)), 8), MASK_SIZE)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    cam_ob = scene.camera.evaluated_get(depsgraph)
+    try:
+        camera = export.camera_dict(depsgraph, cam_ob, cam_ob.matrix_world, w, h)
+        params = dict(export.object_parameters(ob, with_ramp=False), matrix=[list(row) for row in ob.matrix_world])
+        depth = np.empty((h, w, 1), np.float32)
+        utils.native().render(camera, [params], {"depth": depth}, threads=0)
+    except (ImportError, ValueError, TypeError, export.RenderError):
+        return None
+    hit = depth[..., 0] < 1e9
+    if not hit.any():
+        return None
+    rows, cols = np.nonzero(hit.any(axis=1))[0], np.nonzero(hit.any(axis=0))[0]
+    # Row 0 is the bottom of the image (Blender's order).
+    return (2.0 * cols[0] / w - 1.0, 2.0 * rows[0] / h - 1.0, 2.0 * (cols[-1] + 1) / w - 1.0,
+            2.0 * (rows[-1] + 1) / h - 1.0)
+
+
+def camera_ndc(scene, cam_ob, point):
+    from bpy_extras.object_utils import world_to_camera_view
+    v = world_to_camera_view(scene, cam_ob, point)
+    return 2.0 * v.x - 1.0, 2.0 * v.y - 1.0
+
+
+def ndc_to_world(scene, cam_ob, ndc, at):
+    """The world point seen at normalised frame coordinates `ndc` at the depth of point `at`."""
+    m = cam_ob.matrix_world
+    corners = [m @ v for v in cam_ob.data.view_frame(scene=scene)]   # top right, bottom right, bottom left, top left
+    eye = m.translation
+    forward = (m.to_3x3() @ Vector((0.0, 0.0, -1.0))).normalized()
+    u, v = (ndc[0] + 1.0) / 2.0, (ndc[1] + 1.0) / 2.0
+    bottom = corners[2].lerp(corners[1], u)
+    top = corners[3].lerp(corners[0], u)
+    on_frame = bottom.lerp(top, v)
+    depth = (at - eye).dot(forward)
+    if cam_ob.data.type == 'PERSP':
+        return eye + (on_frame - eye) * (depth / (on_frame - eye).dot(forward))
+    return on_frame + forward * (depth - (on_frame - eye).dot(forward))
+
+
+def planes_centre(planes, eye, forward):
+    """Centre of an orthographic frame (the mean of its edge points) in the plane of the eye."""
+    mean = sum((a for _, a in planes), Vector()) / len(planes)
+    return mean - forward * (mean - eye).dot(forward)
+
+
+class UNBOUND_OT_frame_camera(bpy.types.Operator):
+    """Place the fractal in the middle of the active camera's view, at its depth, and scale it so
+    that its bounding sphere fills the frame"""
+    bl_idname = "object.unbound_frame_camera"
+    bl_label = "Frame in Camera"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    fill: bpy.props.FloatProperty(name="Fill", description="Diameter of the bounding sphere as a fraction of "
+                                  "the frame's shorter side", default=0.9, min=0.05, max=2.0, subtype='FACTOR')
+    centre: bpy.props.BoolProperty(name="Center", description="Move the fractal onto the line through the "
+                                   "frame's centre first (otherwise only scale it where it is)", default=True)
+
+    @classmethod
+    def poll(cls, context):
+        return utils.is_fractal(context.object) and context.scene.camera is not None
+
+    def execute(self, context):
+        problem = frame_in_camera(context.scene, context.object, self.fill, self.centre)
+        if problem:
+            self.report({'WARNING'}, "Frame in Camera: " + problem)
+            return {'CANCELLED'}
+        _sync_display_size(context.object)
+        return {'FINISHED'}
+
+
+# -- The first look ----------------------------------------------------------------------------
+
+# What Add > Unbound Fractal gives a scene whose Unbound look was never touched (from the Add
+# menu only; scripts get the plain defaults, the core's): the gallery's soft look, in balance with
+# the scene's own lights. With lights in the scene the axle light is a weak fill from the eye,
+# so that it does not double the key light (the startup lamp); without any it stays the paper's
+# full axle light. Ambient light from the sky, darkened by ambient occlusion, and soft shadows.
+FIRST_LOOK = dict(samples=4, ambient=(0.22, 0.24, 0.28), shadows='SOFT', ao_strength=0.8, ao_distance=0.4,
+                  ao_samples=5)
+FIRST_LOOK_AXLE = 0.35   # with scene lights; 1.0 (the default) without
+
+
+def look_untouched(scene):
+    """True while every setting a look preset holds is at its default."""
+    u = scene.unbound
+    for name in look_preset_names():
+        prop = u.bl_rna.properties[name]
+        value = getattr(u, name)
+        default = list(prop.default_array) if getattr(prop, "is_array", False) and prop.array_length else prop.default
+        if (list(value) if prop.type != 'ENUM' and getattr(prop, "is_array", False) and prop.array_length else value) \
+                != default:
+            return False
+    return True
+
+
+def apply_first_look(scene):
+    u = scene.unbound
+    for name, value in FIRST_LOOK.items():
+        setattr(u, name, value)
+    has_lights = any(o.type == 'LIGHT' and o.visible_get() for o in scene.objects)
+    u.axle_light = FIRST_LOOK_AXLE if has_lights else 1.0
+    scene.update_tag()
+
+
+def menu_options(context):
+    """What the Add menu's Add > Unbound Fractal does beyond a script's call (its invoke): frame the
+    fractal in the active camera, and give it the first look."""
+    return dict(frame_camera=context.scene.camera is not None, first_look=True)
 
 
 def _menger_maps():
@@ -449,6 +698,15 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
                                             subtype='EULER', size=3)
     use_cursor: bpy.props.BoolProperty(name="At 3D Cursor", description="Place the fractal at the 3D cursor",
                                        default=True, options={'SKIP_SAVE'})
+    frame_camera: bpy.props.BoolProperty(name="Frame in Camera", description="Scale the fractal where it is "
+                                         "added so that its bounding sphere fills the active camera's view "
+                                         "(from the Add menu: on when the scene has a camera)", default=False,
+                                         options={'SKIP_SAVE'})
+    first_look: bpy.props.BoolProperty(name="First Look", description="Colour the fractal by orbit trap with a "
+                                       "new colour ramp and, in a scene whose Unbound look is untouched, light "
+                                       "it softly (ambient occlusion, sky, soft shadows, 4 samples; Render tab "
+                                       "> Unbound > look presets to change it). On from the Add menu",
+                                       default=False, options={'SKIP_SAVE'})
 
     def invoke(self, context, event):
         # From the Add menu: a fractal is drawn and rendered only by Unbound, so make it the
@@ -458,6 +716,9 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
             self.report({'INFO'}, "Render engine set to Unbound: only Unbound draws and renders fractals")
         if not self.properties.is_property_set("rotation") and not self.properties.is_property_set("align"):
             self.align = context.preferences.edit.object_align
+        for key, value in menu_options(context).items():
+            if not self.properties.is_property_set(key):
+                setattr(self, key, value)
         return self.execute(context)
 
     def draw(self, context):
@@ -476,6 +737,9 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
         col.enabled = not self.use_cursor
         col.prop(self, "location")
         layout.column().prop(self, "rotation")
+        layout.separator()
+        layout.prop(self, "frame_camera")
+        layout.prop(self, "first_look")
 
     def rotation_matrix(self, context):
         """As Blender's primitives: the Rotation after the alignment's own (the view's rotation
@@ -526,6 +790,18 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
             other.select_set(False)
         ob.select_set(True)
         context.view_layer.objects.active = ob
+        if self.first_look:
+            add_color_ramp(ob)
+            if look_untouched(context.scene):
+                apply_first_look(context.scene)
+        if self.frame_camera:
+            context.view_layer.update()
+            # At the 3D cursor, as every Add does: only the scale changes (Frame in Camera, in the
+            # Object Data tab, also centres it in the view).
+            problem = frame_in_camera(context.scene, ob, centre=False)
+            if problem:
+                self.report({'INFO'}, "Not framed in the camera: " + problem)
+            _sync_display_size(ob)
         return {'FINISHED'}
 
 
@@ -776,7 +1052,7 @@ def menu_add(self, context):
                                    icon='MESH_UVSPHERE')
 
 
-classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_use_engine, UNBOUND_OT_setup_compositing, UNBOUND_MT_fractal_presets,
+classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_frame_camera, UNBOUND_OT_use_engine, UNBOUND_OT_setup_compositing, UNBOUND_MT_fractal_presets,
            UNBOUND_MT_look_presets, UNBOUND_PT_fractal_presets, UNBOUND_PT_look_presets,
            UNBOUND_OT_fractal_preset_add, UNBOUND_OT_look_preset_add, UNBOUND_OT_color_ramp_add, UNBOUND_OT_ifs_shape, UNBOUND_OT_ifs_map_add,
            UNBOUND_OT_ifs_map_remove, UNBOUND_OT_kifs_shape, UNBOUND_OT_kifs_plane_add, UNBOUND_OT_kifs_plane_remove,

@@ -34,6 +34,10 @@ PASSES = (
 
 # Combined = fog(Diffuse + Ambient + Reflection) + Glow, with fog the first segment's depth cue.
 
+# Passes the core takes from sample 0 alone (the pixel centre); every other pass is the mean of the
+# samples, summed sample by sample and divided by the count with the last one (native kernel.h, put).
+SAMPLE_ZERO = frozenset({"depth", "normal", "position", "iterations", "distance"})
+
 
 def enabled(view_layer):
     """Passes enabled on a view layer, Combined first."""

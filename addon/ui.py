@@ -37,6 +37,8 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
         layout.use_property_decorate = True
         props = context.object.unbound
         layout.prop(props, "kind")
+        if context.scene.camera is not None:
+            layout.operator("object.unbound_frame_camera", icon='VIEW_CAMERA')
         # Section 5: say which estimates are proven not to overstep the set.
         exact = props.kind in properties.EXACT_KINDS
         layout.label(text="Exact distance estimate" if exact else "Empirical estimate: marched with half steps",

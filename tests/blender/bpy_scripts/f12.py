@@ -1,0 +1,197 @@
+"""Scripts of test_f12_blender.py (issue 17, F12 as Cycles users know it): a render of several
+samples shows each sample as it finishes (update_result, the stats line's Sample k/N and time
+remaining, a moving progress bar), and Esc keeps the samples done, normalised as a render of
+that many samples."""
+import os
+import pathlib
+
+import bpy
+import numpy as np
+
+# Passes compared in the cancel test: averaged ones (Combined, AO, Diffuse, Shadow) and ones taken
+# from sample 0 (Depth, Normal).
+PASS_TOGGLES = ("use_pass_depth", "use_pass_normal", "use_pass_ao", "use_pass_diffuse", "use_pass_shadow")
+
+
+def scene_with_samples(S, width, height, samples):
+    scene = S.empty_scene(width, height)
+    S.add_camera(scene)
+    S.add_fractal(max_iterations=12)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    sun.data.angle = 0.3
+    sun.rotation_euler = (0.6, 0.3, 0.4)
+    scene.collection.objects.link(sun)
+    u = scene.unbound
+    u.samples = samples
+    u.shadows = 'SOFT'
+    u.ao_strength = 0.5
+    u.ambient = (0.1, 0.1, 0.1)
+    vl = scene.view_layers[0]
+    for toggle in PASS_TOGGLES:
+        setattr(vl.unbound, toggle, True)
+    return scene
+
+
+class Spy:
+    """The RenderEngine as engine.py sees it, recording what Blender is told (stats, progress, each
+    update_result's Combined pixels) and answering test_break as `cancel(spy)` says."""
+
+    def __init__(self, engine, cancel=None):
+        self._engine = engine
+        self._cancel = cancel
+        self.stats, self.progress, self.updates, self.breaks = [], [], [], 0
+
+    def __getattr__(self, name):
+        return getattr(self._engine, name)
+
+    def update_stats(self, stats, info):
+        self.stats.append(info)
+        self._engine.update_stats(stats, info)
+
+    def update_progress(self, value):
+        self.progress.append(value)
+        self._engine.update_progress(value)
+
+    def update_result(self, result):
+        self._engine.update_result(result)
+        rect = result.layers[0].passes.find_by_name("Combined", "").rect
+        pixels = np.empty(len(rect) * 4, np.float32)
+        rect.foreach_get(pixels)
+        self.updates.append(dict(progress=self.progress[-1] if self.progress else None,
+                                 stats=self.stats[-1] if self.stats else None,
+                                 alpha_sum=float(pixels[3::4].sum()), rgb_sum=float(pixels.reshape(-1, 4)[:, :3].sum()),
+                                 digest=hash(pixels.tobytes())))
+
+    def test_break(self):
+        if self._engine.test_break():
+            return True
+        if self._cancel is not None and self._cancel(self):
+            self.breaks += 1
+            return True
+        return False
+
+
+def spied(mod, cancel=None):
+    """Route the next renders through a Spy; returns the list that receives the spies."""
+    spies = []
+    original = mod.engine.render
+
+    def render(engine, depsgraph):
+        spy = Spy(engine, cancel)
+        spies.append(spy)
+        original(spy, depsgraph)
+
+    mod.engine.render = render
+    return spies, lambda: setattr(mod.engine, "render", original)
+
+
+def read_passes(S, scene, name):
+    exr = S.render_to_exr(scene, name)
+    return {k: np.asarray(v) for k, v in exr.items()}
+
+
+def samples_shown_as_they_finish(S, mod, samples=8):
+    scene = scene_with_samples(S, 240, 180, samples)
+    spies, restore = spied(mod)
+    final = read_passes(S, scene, "progressive.exr")
+    restore()
+    spy = spies[0]
+    S.report(stats=spy.stats, progress=spy.progress, updates=spy.updates,
+             final_rgb_sum=float(sum(final["ViewLayer.Combined.%s" % c].sum() for c in "RGB")),
+             last=dict(mod.engine.LAST_STATS))
+
+
+def esc_keeps_the_samples_done(S, mod, samples=8, at=0.5):
+    """Cancel once the progress passes `at` (within the next sample: the one in flight is dropped),
+    then render the same scene with as many samples as were done: every pass equal, bit for bit."""
+    scene = scene_with_samples(S, 240, 180, samples)
+    spies, restore = spied(mod, cancel=lambda spy: bool(spy.progress) and spy.progress[-1] > at)
+    cancelled = read_passes(S, scene, "cancelled.exr")
+    restore()
+    stats = dict(mod.engine.LAST_STATS)
+    done = stats["samples_done"]
+    scene.unbound.samples = max(done, 1)
+    reference = read_passes(S, scene, "reference.exr")
+    diffs = {k: float(np.max(np.abs(cancelled[k] - reference[k]))) for k in reference}
+    identical = {k: bool(np.array_equal(cancelled[k], reference[k])) for k in reference}
+    S.report(stats=stats, done=done, diffs=diffs, identical=identical, breaks=spies[0].breaks,
+             spy_stats=spies[0].stats,
+             coverage=float((cancelled["ViewLayer.Combined.A"] > 0).mean()),
+             channels=sorted(reference))
+
+
+def esc_in_the_first_sample_keeps_the_tiles_done(S, mod):
+    """One sample, cancelled part of the way: the tiles done are kept (alpha 1 where the fractal is
+    hit), the rest transparent black, and the frame is not an empty image."""
+    scene = scene_with_samples(S, 320, 240, 1)
+    scene.unbound.tile_size = 16
+    scene.render.threads_mode = 'FIXED'
+    scene.render.threads = 1
+    spies, restore = spied(mod, cancel=lambda spy: bool(spy.progress) and spy.progress[-1] > 0.75)
+    partial = read_passes(S, scene, "partial.exr")
+    restore()
+    stats = dict(mod.engine.LAST_STATS)
+    full = read_passes(S, scene, "full.exr")
+    a, b = partial["ViewLayer.Combined.A"], full["ViewLayer.Combined.A"]
+    rendered = a > 0
+    S.report(stats=stats, partial_coverage=float(rendered.mean()), full_coverage=float((b > 0).mean()),
+             rendered_equal=bool(all(np.array_equal(partial["ViewLayer.Combined.%s" % c][rendered],
+                                                    full["ViewLayer.Combined.%s" % c][rendered]) for c in "RGBA")))
+
+
+def failure_mid_render_writes_no_file(S, mod, samples=4):
+    """A failure after some samples were shown: still an error report and no file (issue 16)."""
+    scene = scene_with_samples(S, 120, 90, samples)
+    calls = []
+    original = mod.utils.native
+
+    class Core:
+        def __getattr__(self, name):
+            return getattr(original(), name)
+
+        def render(self, *args, **kw):
+            calls.append(kw.get("sample_range"))
+            if len(calls) == 3:
+                raise MemoryError()
+            return original().render(*args, **kw)
+
+    mod.utils.native = lambda: Core()
+    outcome = S.attempt(scene, "failed.png")
+    mod.utils.native = original
+    S.report(outcome=outcome, calls=calls)
+
+
+def overhead(S, mod, width=1920, height=1080, samples=(1, 8)):
+    """Seconds (wall, CPU) of F12 with the samples shown one by one, against one native render of
+    all samples into the same passes (what the engine did before), the same scene."""
+    import time
+    import unbound_core
+    from bl_ext.user_default.unbound import export
+    out = {}
+    for n in samples:
+        scene = S.empty_scene(width, height)
+        S.add_camera(scene)
+        S.add_fractal()
+        scene.unbound.samples = n
+        dg = bpy.context.evaluated_depsgraph_get()
+        t, c = time.perf_counter(), time.process_time()
+        bpy.ops.render.render()
+        f12 = (time.perf_counter() - t, time.process_time() - c)
+
+        class Cam:
+            camera_override = None
+
+            def camera_model_matrix(self, ob, use_spherical_stereo=False):
+                return ob.matrix_world
+
+            def camera_shift_x(self, ob, use_spherical_stereo=False):
+                return ob.data.shift_x
+
+        cam = export.camera_description(Cam(), dg, width, height)
+        bufs = {"combined": np.empty((height, width, 4), np.float32), "depth": np.empty((height, width, 1), np.float32)}
+        t, c = time.perf_counter(), time.process_time()
+        unbound_core.render(cam, export.fractal_objects(dg), bufs, shading=export.shading_description(dg),
+                            **export.render_options(scene))
+        direct = (time.perf_counter() - t, time.process_time() - c)
+        out[n] = dict(f12=f12, direct=direct)
+    S.report(**{str(k): v for k, v in out.items()})

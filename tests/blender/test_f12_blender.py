@@ -1,0 +1,48 @@
+"""Issue 17, F12 as Cycles users know it (bpy 4.2): samples appear in the render result as they
+finish, the stats line says Sample k/N and the time remaining, the progress bar moves, and Esc
+keeps the samples done, equal bit for bit to a render of that many samples."""
+import re
+
+
+def test_samples_are_shown_as_they_finish(run_bpy):
+    r = run_bpy("f12.samples_shown_as_they_finish", args={"samples": 8})
+    # The stats line counts the samples up, with the time remaining.
+    counts = [int(m.group(1)) for m in (re.search(r"Sample (\d+)/8", s) for s in r["stats"]) if m]
+    assert counts == sorted(counts) and len(set(counts)) >= 4 and counts[-1] == 8, r["stats"]
+    assert any("Remaining" in s for s in r["stats"]), r["stats"]
+    # The progress bar moves through the render.
+    p = r["progress"]
+    assert p == sorted(p) and p[-1] == 1.0 and len({round(v, 2) for v in p}) >= 8, p
+    # The result changes before the render ends: several intermediate results, each different.
+    u = r["updates"]
+    assert len(u) >= 3, u
+    assert len({x["digest"] for x in u}) == len(u), u
+    assert all(x["alpha_sum"] > 0 for x in u), u
+    assert u[0]["progress"] < 0.5, u
+    assert r["last"]["samples_done"] == 8 and not r["last"]["cancelled"], r["last"]
+
+
+def test_esc_keeps_the_samples_done(run_bpy):
+    r = run_bpy("f12.esc_keeps_the_samples_done", args={"samples": 8, "at": 0.5})
+    assert r["stats"]["cancelled"] and r["breaks"] >= 1, r["stats"]
+    assert 3 <= r["done"] <= 5, r["done"]
+    assert r["coverage"] > 0.1, r
+    # Every pass (Combined, AO, Diffuse, Shadow averaged; Depth and Normal from sample 0) bit for bit.
+    assert len(r["channels"]) >= 12, r["channels"]
+    assert all(r["identical"].values()), r["diffs"]
+    assert any("cancelled after %d of 8 samples" % r["done"] in s for s in r["spy_stats"]), r["spy_stats"]
+
+
+def test_esc_in_the_first_sample_keeps_the_tiles_done(run_bpy):
+    r = run_bpy("f12.esc_in_the_first_sample_keeps_the_tiles_done")
+    assert r["stats"]["cancelled"], r
+    assert 0.0 < r["partial_coverage"] < r["full_coverage"], r
+    assert r["rendered_equal"], r
+
+
+def test_a_failure_between_samples_still_writes_no_file(run_bpy):
+    r = run_bpy("f12.failure_mid_render_writes_no_file")
+    outcome, written = r["outcome"]
+    assert outcome == "Error: Unbound: out of memory: lower the resolution or turn off passes", r
+    assert written is False, r
+    assert r["calls"] == [[0, 1], [1, 1], [2, 1]], r["calls"]
