@@ -836,22 +836,41 @@ class UNBOUND_OT_ifs_shape(IFSOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
+def add_list_item(op, props, items, active, limit, what, fields):
+    """Add an item to the collection props.<items> (a copy of the active one's `fields`, else the
+    defaults) and make it active; at `limit` items, report and cancel."""
+    collection = getattr(props, items)
+    if len(collection) >= limit:
+        op.report({'ERROR'}, "%s has at most %d %s" % (what[0], limit, what[1]))
+        return {'CANCELLED'}
+    index = getattr(props, active)
+    source = collection[index] if index < len(collection) else None
+    item = collection.add()
+    if source is not None:
+        for field in fields:
+            setattr(item, field, getattr(source, field))
+    setattr(props, active, len(collection) - 1)
+    return {'FINISHED'}
+
+
+def remove_list_item(props, items, active):
+    """Remove the active item of props.<items>; the next one (or the last) becomes active."""
+    collection, index = getattr(props, items), getattr(props, active)
+    if not 0 <= index < len(collection):
+        return {'CANCELLED'}
+    collection.remove(index)
+    setattr(props, active, max(0, min(index, len(collection) - 1)))
+    return {'FINISHED'}
+
+
 class UNBOUND_OT_ifs_map_add(IFSOperator, bpy.types.Operator):
     """Add a map to the IFS (a copy of the active one, or a half-size map)"""
     bl_idname = "object.unbound_ifs_map_add"
     bl_label = "Add IFS Map"
 
     def execute(self, context):
-        props = context.object.unbound
-        if len(props.ifs_maps) >= 32:
-            self.report({'ERROR'}, "An IFS has at most 32 maps")
-            return {'CANCELLED'}
-        source = props.ifs_maps[props.ifs_active_map] if props.ifs_active_map < len(props.ifs_maps) else None
-        m = props.ifs_maps.add()
-        if source is not None:
-            m.location, m.rotation, m.scale = source.location, source.rotation, source.scale
-        props.ifs_active_map = len(props.ifs_maps) - 1
-        return {'FINISHED'}
+        return add_list_item(self, context.object.unbound, "ifs_maps", "ifs_active_map", 32, ("An IFS", "maps"),
+                             ("location", "rotation", "scale"))
 
 
 class UNBOUND_OT_ifs_map_remove(IFSOperator, bpy.types.Operator):
@@ -860,12 +879,7 @@ class UNBOUND_OT_ifs_map_remove(IFSOperator, bpy.types.Operator):
     bl_label = "Remove IFS Map"
 
     def execute(self, context):
-        props = context.object.unbound
-        if not 0 <= props.ifs_active_map < len(props.ifs_maps):
-            return {'CANCELLED'}
-        props.ifs_maps.remove(props.ifs_active_map)
-        props.ifs_active_map = max(0, min(props.ifs_active_map, len(props.ifs_maps) - 1))
-        return {'FINISHED'}
+        return remove_list_item(context.object.unbound, "ifs_maps", "ifs_active_map")
 
 
 class KIFSOperator:
@@ -894,16 +908,8 @@ class UNBOUND_OT_kifs_plane_add(KIFSOperator, bpy.types.Operator):
     bl_label = "Add Fold Plane"
 
     def execute(self, context):
-        props = context.object.unbound
-        if len(props.kifs_planes) >= 16:
-            self.report({'ERROR'}, "A KIFS has at most 16 fold planes")
-            return {'CANCELLED'}
-        source = props.kifs_planes[props.kifs_active_plane] if props.kifs_active_plane < len(props.kifs_planes) else None
-        p = props.kifs_planes.add()
-        if source is not None:
-            p.normal, p.offset = source.normal, source.offset
-        props.kifs_active_plane = len(props.kifs_planes) - 1
-        return {'FINISHED'}
+        return add_list_item(self, context.object.unbound, "kifs_planes", "kifs_active_plane", 16,
+                             ("A KIFS", "fold planes"), ("normal", "offset"))
 
 
 class UNBOUND_OT_kifs_plane_remove(KIFSOperator, bpy.types.Operator):
@@ -912,54 +918,34 @@ class UNBOUND_OT_kifs_plane_remove(KIFSOperator, bpy.types.Operator):
     bl_label = "Remove Fold Plane"
 
     def execute(self, context):
-        props = context.object.unbound
-        if not 0 <= props.kifs_active_plane < len(props.kifs_planes):
-            return {'CANCELLED'}
-        props.kifs_planes.remove(props.kifs_active_plane)
-        props.kifs_active_plane = max(0, min(props.kifs_active_plane, len(props.kifs_planes) - 1))
-        return {'FINISHED'}
+        return remove_list_item(context.object.unbound, "kifs_planes", "kifs_active_plane")
 
 
-class UNBOUND_OT_hybrid_step_add(bpy.types.Operator):
+class HybridOperator:
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return utils.is_fractal(context.object) and context.object.unbound.kind == 'HYBRID'
+
+
+class UNBOUND_OT_hybrid_step_add(HybridOperator, bpy.types.Operator):
     """Add an entry to the hybrid (a copy of the active one)"""
     bl_idname = "object.unbound_hybrid_step_add"
     bl_label = "Add Hybrid Step"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    @classmethod
-    def poll(cls, context):
-        return utils.is_fractal(context.object) and context.object.unbound.kind == 'HYBRID'
 
     def execute(self, context):
-        props = context.object.unbound
-        if len(props.hybrid_steps) >= 8:
-            self.report({'ERROR'}, "A hybrid has at most 8 entries")
-            return {'CANCELLED'}
-        source = props.hybrid_steps[props.hybrid_active_step] if props.hybrid_active_step < len(props.hybrid_steps) else None
-        e = props.hybrid_steps.add()
-        if source is not None:
-            e.formula, e.count = source.formula, source.count
-        props.hybrid_active_step = len(props.hybrid_steps) - 1
-        return {'FINISHED'}
+        return add_list_item(self, context.object.unbound, "hybrid_steps", "hybrid_active_step", 8,
+                             ("A hybrid", "entries"), ("formula", "count"))
 
 
-class UNBOUND_OT_hybrid_step_remove(bpy.types.Operator):
+class UNBOUND_OT_hybrid_step_remove(HybridOperator, bpy.types.Operator):
     """Remove the active entry of the hybrid"""
     bl_idname = "object.unbound_hybrid_step_remove"
     bl_label = "Remove Hybrid Step"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    @classmethod
-    def poll(cls, context):
-        return utils.is_fractal(context.object) and context.object.unbound.kind == 'HYBRID'
 
     def execute(self, context):
-        props = context.object.unbound
-        if not 0 <= props.hybrid_active_step < len(props.hybrid_steps):
-            return {'CANCELLED'}
-        props.hybrid_steps.remove(props.hybrid_active_step)
-        props.hybrid_active_step = max(0, min(props.hybrid_active_step, len(props.hybrid_steps) - 1))
-        return {'FINISHED'}
+        return remove_list_item(context.object.unbound, "hybrid_steps", "hybrid_active_step")
 
 
 def _output_socket(rl_node, name):

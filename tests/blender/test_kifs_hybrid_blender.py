@@ -36,3 +36,12 @@ def test_parameters_are_keyframeable(run_bpy):
         assert exported[0] == exported[2] != exported[1], name
         assert changed > 0.01, name
         assert same, name
+
+
+def test_fold_plane_and_hybrid_entry_lists(run_bpy):
+    r = run_bpy("kifs_hybrid.list_operators")
+    assert r["copied"] == [True, 0.25], r
+    assert "at most 16 fold planes" in r["over"], r
+    assert r["planes"][1:] == [15, 14], r
+    n = r["steps"][0]
+    assert r["steps"][1] == [n + 1, True, True] and r["steps"][2] == [n, 0], r

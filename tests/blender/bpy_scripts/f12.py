@@ -160,38 +160,3 @@ def failure_mid_render_writes_no_file(S, mod, samples=4):
     mod.utils.native = original
     S.report(outcome=outcome, calls=calls)
 
-
-def overhead(S, mod, width=1920, height=1080, samples=(1, 8)):
-    """Seconds (wall, CPU) of F12 with the samples shown one by one, against one native render of
-    all samples into the same passes (what the engine did before), the same scene."""
-    import time
-    import unbound_core
-    from bl_ext.user_default.unbound import export
-    out = {}
-    for n in samples:
-        scene = S.empty_scene(width, height)
-        S.add_camera(scene)
-        S.add_fractal()
-        scene.unbound.samples = n
-        dg = bpy.context.evaluated_depsgraph_get()
-        t, c = time.perf_counter(), time.process_time()
-        bpy.ops.render.render()
-        f12 = (time.perf_counter() - t, time.process_time() - c)
-
-        class Cam:
-            camera_override = None
-
-            def camera_model_matrix(self, ob, use_spherical_stereo=False):
-                return ob.matrix_world
-
-            def camera_shift_x(self, ob, use_spherical_stereo=False):
-                return ob.data.shift_x
-
-        cam = export.camera_description(Cam(), dg, width, height)
-        bufs = {"combined": np.empty((height, width, 4), np.float32), "depth": np.empty((height, width, 1), np.float32)}
-        t, c = time.perf_counter(), time.process_time()
-        unbound_core.render(cam, export.fractal_objects(dg), bufs, shading=export.shading_description(dg),
-                            **export.render_options(scene))
-        direct = (time.perf_counter() - t, time.process_time() - c)
-        out[n] = dict(f12=f12, direct=direct)
-    S.report(**{str(k): v for k, v in out.items()})

@@ -62,3 +62,37 @@ def added_ready_to_render(S, mod):
                          exact=kind in mod.properties.EXACT_KINDS, planes=len(ob.unbound.kifs_planes),
                          steps=len(ob.unbound.hybrid_steps))
     S.report(out=out)
+
+
+def list_operators(S, mod):
+    """The KIFS fold-plane and hybrid-entry lists: add copies the active item, stops at the limit
+    with a report, remove keeps a valid active index."""
+    S.empty_scene(32, 24)
+    bpy.ops.object.unbound_fractal_add(kind='KIFS', use_cursor=False)
+    u = bpy.context.object.unbound
+    planes = [len(u.kifs_planes)]
+    u.kifs_active_plane = 0
+    u.kifs_planes[0].offset = 0.25
+    bpy.ops.object.unbound_kifs_plane_add()
+    copied = (u.kifs_active_plane == len(u.kifs_planes) - 1, u.kifs_planes[-1].offset)
+    while len(u.kifs_planes) < 16:
+        bpy.ops.object.unbound_kifs_plane_add()
+    try:
+        bpy.ops.object.unbound_kifs_plane_add()
+        over = "finished"
+    except RuntimeError as exc:
+        over = str(exc)
+    u.kifs_active_plane = 15
+    bpy.ops.object.unbound_kifs_plane_remove()
+    planes += [len(u.kifs_planes), u.kifs_active_plane]
+    bpy.ops.object.unbound_fractal_add(kind='HYBRID', use_cursor=False)
+    h = bpy.context.object.unbound
+    steps = [len(h.hybrid_steps)]
+    h.hybrid_active_step = 0
+    bpy.ops.object.unbound_hybrid_step_add()
+    steps.append((len(h.hybrid_steps), h.hybrid_steps[-1].formula == h.hybrid_steps[0].formula,
+                  h.hybrid_steps[-1].count == h.hybrid_steps[0].count))
+    h.hybrid_active_step = 0
+    bpy.ops.object.unbound_hybrid_step_remove()
+    steps.append((len(h.hybrid_steps), h.hybrid_active_step))
+    S.report(planes=planes, copied=list(copied), over=over, steps=steps)
