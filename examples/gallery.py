@@ -84,6 +84,12 @@ VIEWS = {
     "sierpinski_tetrahedron": dict(camera=((-2.4, -4.2, 1.9), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
     "menger_sponge": dict(camera=((-3.0, -4.4, 2.9), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
     "koch_curve": dict(camera=((0.4, -2.9, 1.3), (0.0, 0.0, 0.15), 50.0), sun=SIDE_SUN, world=DARK),
+    # The community's formulas (issue 22): the Mandelbox at scale 2 fills a cube of half-width
+    # about 1.1, at scale -1.5 about 0.9; the KIFS Menger sponges the cube [-1, 1]^3.
+    "mandelbox_scale_2": dict(camera=((-2.6, -4.9, 3.9), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "mandelbox_scale_minus_1_5": dict(camera=((-1.7, -3.2, 2.5), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "kifs_menger_sponge": dict(camera=((-2.3, -4.3, 3.4), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    "kifs_twisted_menger": dict(camera=((-2.4, -4.5, 3.6), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
 }
 
 
