@@ -170,6 +170,12 @@ def record_line(name, data):
     return "%s,sha256=%s,%d" % (name, digest, len(data))
 
 
+def license_text(project):
+    """pyproject's license: an SPDX string (PEP 639), or the older {text = ...} table."""
+    value = project["license"]
+    return value["text"] if isinstance(value, dict) else value
+
+
 def pack_wheel(platform, binary, out_dir):
     project = tomllib.loads((ROOT / "native" / "pyproject.toml").read_text())["project"]
     name, version = project["name"].replace("-", "_"), project["version"]
@@ -182,7 +188,7 @@ def pack_wheel(platform, binary, out_dir):
     files[dist_info + "/METADATA"] = ("Metadata-Version: 2.1\nName: %s\nVersion: %s\nSummary: %s\n"
                                       "License: %s\nRequires-Python: %s\n" % (
                                           project["name"], version, project["description"],
-                                          project["license"]["text"], project["requires-python"])).encode()
+                                          license_text(project), project["requires-python"])).encode()
     files[dist_info + "/WHEEL"] = ("Wheel-Version: 1.0\nGenerator: unbound tools/cross_build.py\n"
                                    "Root-Is-Purelib: false\n" + "".join(
                                        "Tag: cp311-abi3-%s\n" % t for t in TARGETS[platform][1].split("."))).encode()
