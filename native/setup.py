@@ -17,7 +17,9 @@ if sys.platform == "win32":
 # Every C file in src/ (tools/cross_build.py compiles the same set for the other platforms).
 sources = sorted(p.name for p in pathlib.Path(__file__).resolve().parent.joinpath("src").glob("*.c"))
 compile_args = ["-O3", "-std=c11", "-D_GNU_SOURCE", "-ffp-contract=off", "-fno-math-errno",
-                "-fvisibility=hidden", "-Wall", "-Wno-unused-function"]
+                "-fvisibility=hidden", "-Wall", "-Wno-unused-function",
+                # An error under clang (zig, Apple): make it one here too, not a warning pip hides.
+                "-Werror=implicit-function-declaration"]
 libraries = ["m", "pthread"]
 
 setup(

@@ -39,7 +39,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOURCES = sorted(p.name for p in (ROOT / "native" / "src").glob("*.c"))
 # The flags of native/setup.py: IEEE semantics kept (no contraction of a*b+c behind our back).
 CFLAGS = ["-O3", "-std=c11", "-D_GNU_SOURCE", "-ffp-contract=off", "-fno-math-errno", "-fvisibility=hidden",
-          "-Wall", "-Wno-unused-function", "-DPy_LIMITED_API=0x030B0000"]
+          "-Wall", "-Wno-unused-function", "-Werror=implicit-function-declaration", "-DPy_LIMITED_API=0x030B0000"]
 # Reproducible objects and archives: no paths of this machine in the binaries.
 CFLAGS += ["-ffile-prefix-map=%s=." % ROOT, "-fno-ident"]
 
