@@ -97,13 +97,22 @@ test)
 	log=$ROOT/build/sanitize-test.log
 	# Timing tests are skipped (UNBOUND_SANITIZED): the sanitizers slow the core several-fold.
 	set +e
+	# -s: no output capture, so that a sanitizer's report reaches the log even when it ends the
+	# process in the middle of a test (captured, it died with the process, unseen).
 	run_sanitized "$(clang -print-file-name=libclang_rt.asan-x86_64.so)" env UNBOUND_SANITIZED=1 \
-		"$PY" -m pytest -q -p no:cacheprovider tests/native "$@" >"$log" 2>&1
+		"$PY" -m pytest -q -s -p no:cacheprovider tests/native "$@" >"$log" 2>&1
 	status=$?
 	set -e
 	# pytest's summary, not LeakSanitizer's exit report that follows it.
 	sed '/^=\{20,\}$/,$d' "$log" | tail -n 30
 	"$PY" tools/lsan_report.py "$log" || status=1
+	# A run that ended without pytest's summary line did not finish, whatever its exit status
+	# (the sanitizers' common `exitcode` is 0 here so that leaks at exit are judged by
+	# lsan_report.py, and UBSan's halt takes that same code).
+	if ! grep -Eq '^[=]* ?[0-9]+ passed' "$log" || grep -Eq '^[=]* ?[0-9]+ failed' "$log"; then
+		echo "sanitize: pytest did not finish cleanly (see $log)" >&2
+		status=1
+	fi
 	exit $status
 	;;
 fuzz)

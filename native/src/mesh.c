@@ -986,7 +986,8 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     for (size_t i = 0; i < nchunks && !c.failed; i++) {
         if (vec_reserve(&c, &seeds, seeds.n + chunks[i].n))
             break;
-        memcpy(seeds.data + seeds.n * sizeof(uint64_t), chunks[i].data, chunks[i].n * sizeof(uint64_t));
+        if (chunks[i].n) /* an empty chunk has no buffer: memcpy from NULL is undefined even for 0 bytes */
+            memcpy(seeds.data + seeds.n * sizeof(uint64_t), chunks[i].data, chunks[i].n * sizeof(uint64_t));
         seeds.n += chunks[i].n;
     }
     for (size_t i = 0; i < nchunks; i++)
