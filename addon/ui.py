@@ -7,6 +7,21 @@ import bpy
 from . import export, operators, passes, properties, utils
 
 
+def draw_item_list(layout, props, items, active, ui_list, op_prefix, rows, shape_op=None):
+    """A collection's list with add/remove buttons (operators op_prefix + "_add"/"_remove") and
+    optionally a menu of shapes to load; returns the active item, or None."""
+    row = layout.row()
+    row.template_list(ui_list, "", props, items, props, active, rows=rows)
+    col = row.column(align=True)
+    col.operator(op_prefix + "_add", icon='ADD', text="")
+    col.operator(op_prefix + "_remove", icon='REMOVE', text="")
+    if shape_op:
+        col.separator()
+        col.operator_menu_enum(shape_op, "shape", icon='DOWNARROW_HLT', text="")
+    collection, index = getattr(props, items), getattr(props, active)
+    return collection[index] if 0 <= index < len(collection) else None
+
+
 class UnboundPanel:
     COMPAT_ENGINES = {utils.ENGINE_ID}
     bl_space_type = 'PROPERTIES'
@@ -64,29 +79,18 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
             layout.prop(props, "cubic_component")
             layout.prop(props, "extent")
         elif props.kind == 'IFS':
-            row = layout.row()
-            row.template_list("UNBOUND_UL_ifs_maps", "", props, "ifs_maps", props, "ifs_active_map", rows=4)
-            col = row.column(align=True)
-            col.operator("object.unbound_ifs_map_add", icon='ADD', text="")
-            col.operator("object.unbound_ifs_map_remove", icon='REMOVE', text="")
-            col.separator()
-            col.operator_menu_enum("object.unbound_ifs_shape", "shape", icon='DOWNARROW_HLT', text="")
-            if 0 <= props.ifs_active_map < len(props.ifs_maps):
-                m = props.ifs_maps[props.ifs_active_map]
+            m = draw_item_list(layout, props, "ifs_maps", "ifs_active_map", "UNBOUND_UL_ifs_maps",
+                               "object.unbound_ifs_map", 4, "object.unbound_ifs_shape")
+            if m is not None:
                 layout.column().prop(m, "location")
                 layout.column().prop(m, "rotation")
                 layout.column().prop(m, "scale")
             layout.prop(props, "ifs_depth")
         elif props.kind in {'KIFS', 'HYBRID'}:
             if props.kind == 'HYBRID':
-                row = layout.row()
-                row.template_list("UNBOUND_UL_hybrid_steps", "", props, "hybrid_steps", props, "hybrid_active_step",
-                                  rows=3)
-                col = row.column(align=True)
-                col.operator("object.unbound_hybrid_step_add", icon='ADD', text="")
-                col.operator("object.unbound_hybrid_step_remove", icon='REMOVE', text="")
-                if 0 <= props.hybrid_active_step < len(props.hybrid_steps):
-                    e = props.hybrid_steps[props.hybrid_active_step]
+                e = draw_item_list(layout, props, "hybrid_steps", "hybrid_active_step", "UNBOUND_UL_hybrid_steps",
+                                   "object.unbound_hybrid_step", 3)
+                if e is not None:
                     layout.prop(e, "formula")
                     layout.prop(e, "count")
                 box = layout.box()
@@ -102,15 +106,9 @@ class UNBOUND_PT_fractal(FractalPanel, bpy.types.Panel):
             box = layout.box() if props.kind == 'HYBRID' else layout
             if props.kind == 'HYBRID':
                 box.label(text="KIFS")
-            row = box.row()
-            row.template_list("UNBOUND_UL_kifs_planes", "", props, "kifs_planes", props, "kifs_active_plane", rows=4)
-            col = row.column(align=True)
-            col.operator("object.unbound_kifs_plane_add", icon='ADD', text="")
-            col.operator("object.unbound_kifs_plane_remove", icon='REMOVE', text="")
-            col.separator()
-            col.operator_menu_enum("object.unbound_kifs_shape", "shape", icon='DOWNARROW_HLT', text="")
-            if 0 <= props.kifs_active_plane < len(props.kifs_planes):
-                p = props.kifs_planes[props.kifs_active_plane]
+            p = draw_item_list(box, props, "kifs_planes", "kifs_active_plane", "UNBOUND_UL_kifs_planes",
+                               "object.unbound_kifs_plane", 4, "object.unbound_kifs_shape")
+            if p is not None:
                 box.column().prop(p, "normal")
                 box.prop(p, "offset")
             box.prop(props, "kifs_scale")
