@@ -4,7 +4,7 @@ import math
 import os
 
 import bpy
-from mathutils import Euler, Vector
+from mathutils import Euler, Matrix, Vector
 from bl_operators.presets import AddPresetBase
 from bl_ui.utils import PresetPanel
 
@@ -382,11 +382,13 @@ def camera_frustum(scene, cam_ob):
     return planes, eye, through, forward, perspective
 
 
-def frame_in_camera(scene, ob, fill=0.9, centre=True):
+def frame_in_camera(scene, ob, fill=0.9, centre=True, turn=False):
     """Scale `ob` (about its origin) so that its bounding sphere fills `fill` of the active
     camera's view: the sphere touches the nearest frame edges when fill is 1. With `centre`, first
     move it onto the line through the frame's centre, at its depth (or in front of the camera if it
-    was behind). Returns a message when it cannot (no camera, the set behind it), else None."""
+    was behind). With `turn`, a set whose silhouette stands across the frame's long side is first
+    turned a quarter about the view axis (a tall set in a wide frame fills twice the area lying
+    down). Returns a message when it cannot (no camera, the set behind it), else None."""
     cam_ob = scene.camera
     if cam_ob is None or cam_ob.type != 'CAMERA':
         return "the scene has no active camera"
@@ -429,6 +431,8 @@ def frame_in_camera(scene, ob, fill=0.9, centre=True):
     if not (factor > 0.0) or not math.isfinite(factor):
         return "the fractal cannot be framed from here"
     ob.scale = ob.scale * factor
+    if turn:
+        turn_to_frame(scene, cam_ob, ob, forward)
     # The bounding sphere is the core's conservative bound, often much larger than the set (the
     # default Julia set fills a tenth of the frame inside it): then fit what the camera sees of
     # the set itself, from a small render through the camera.
@@ -466,6 +470,29 @@ def frame_in_camera(scene, ob, fill=0.9, centre=True):
 
 
 MASK_SIZE = 160   # pixels across the silhouette render of Frame in Camera
+# Turn to fit only when the silhouette's long side lies across the frame's long side by more than
+# this ratio: a nearly round set is left as it was placed.
+TURN_RATIO = 1.15
+
+
+def turn_to_frame(scene, cam_ob, ob, forward):
+    """Turn `ob` a quarter about the camera's view axis, through its origin, when its silhouette is
+    longer (by TURN_RATIO) across the frame's long side than along it. True when it turned."""
+    box = silhouette(scene, ob)
+    if box is None:
+        return False
+    r = scene.render
+    aspect = (r.resolution_x * r.pixel_aspect_x) / max(r.resolution_y * r.pixel_aspect_y, 1e-9)
+    # The box in frame units where one unit is the frame's height.
+    width, height = (box[2] - box[0]) * aspect, box[3] - box[1]
+    along, across = (width, height) if aspect >= 1.0 else (height, width)
+    if across <= TURN_RATIO * along:
+        return False
+    quarter = Matrix.Rotation(math.pi / 2.0, 4, forward)
+    origin = ob.matrix_world.translation.copy()
+    ob.matrix_world = Matrix.Translation(origin) @ quarter @ Matrix.Translation(-origin) @ ob.matrix_world
+    bpy.context.view_layer.update()
+    return True
 
 
 def silhouette(scene, ob):
@@ -533,13 +560,16 @@ class UNBOUND_OT_frame_camera(bpy.types.Operator):
                                   "the frame's shorter side", default=0.9, min=0.05, max=2.0, subtype='FACTOR')
     centre: bpy.props.BoolProperty(name="Center", description="Move the fractal onto the line through the "
                                    "frame's centre first (otherwise only scale it where it is)", default=True)
+    turn: bpy.props.BoolProperty(name="Turn to Fit", description="Turn a set that stands across the frame's "
+                                 "long side a quarter about the view axis, so that it fills the frame lying "
+                                 "down", default=False)
 
     @classmethod
     def poll(cls, context):
         return utils.is_fractal(context.object) and context.scene.camera is not None
 
     def execute(self, context):
-        problem = frame_in_camera(context.scene, context.object, self.fill, self.centre)
+        problem = frame_in_camera(context.scene, context.object, self.fill, self.centre, self.turn)
         if problem:
             self.report({'WARNING'}, "Frame in Camera: " + problem)
             return {'CANCELLED'}
@@ -584,7 +614,7 @@ def apply_first_look(scene):
 def menu_options(context):
     """What the Add menu's Add > Unbound Fractal does beyond a script's call (its invoke): frame the
     fractal in the active camera, and give it the first look."""
-    return dict(frame_camera=context.scene.camera is not None, first_look=True)
+    return dict(frame_camera=context.scene.camera is not None, turn_to_fit=True, first_look=True)
 
 
 def _menger_maps():
@@ -702,6 +732,10 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
                                          "added so that its bounding sphere fills the active camera's view "
                                          "(from the Add menu: on when the scene has a camera)", default=False,
                                          options={'SKIP_SAVE'})
+    turn_to_fit: bpy.props.BoolProperty(name="Turn to Fit", description="With Frame in Camera: turn a set "
+                                        "that stands across the frame's long side a quarter about the view "
+                                        "axis, so that it fills the frame lying down (on from the Add menu)",
+                                        default=False, options={'SKIP_SAVE'})
     first_look: bpy.props.BoolProperty(name="First Look", description="Colour the fractal by orbit trap with a "
                                        "new colour ramp and, in a scene whose Unbound look is untouched, light "
                                        "it softly (ambient occlusion, sky, soft shadows, 4 samples; Render tab "
@@ -739,6 +773,9 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
         layout.column().prop(self, "rotation")
         layout.separator()
         layout.prop(self, "frame_camera")
+        row = layout.row()
+        row.enabled = self.frame_camera
+        row.prop(self, "turn_to_fit")
         layout.prop(self, "first_look")
 
     def rotation_matrix(self, context):
@@ -798,7 +835,7 @@ class UNBOUND_OT_fractal_add(bpy.types.Operator):
             context.view_layer.update()
             # At the 3D cursor, as every Add does: only the scale changes (Frame in Camera, in the
             # Object Data tab, also centres it in the view).
-            problem = frame_in_camera(context.scene, ob, centre=False)
+            problem = frame_in_camera(context.scene, ob, centre=False, turn=self.turn_to_fit)
             if problem:
                 self.report({'INFO'}, "Not framed in the camera: " + problem)
             _sync_display_size(ob)

@@ -1,9 +1,12 @@
 """Scripts of test_first_render_blender.py (issue 17, a beautiful first render): Blender's startup
 scene (cube, camera, lamp), Add > Unbound Fractal as from the Add menu, F12: how much of the frame
 the fractal fills, how coloured it is, how long it takes."""
+import math
 import os
 import pathlib
 import time
+
+import mathutils
 
 import bpy
 import numpy as np
@@ -57,6 +60,7 @@ def first_render(S, mod, kind='QUATERNION_JULIA', percentage=100, keep=None, sce
         setattr(ob.unbound, key, value)
     out = measure(scene, "first_" + kind.lower(), percentage)
     out.update(scale=list(ob.scale), location=list(ob.location), engine=scene.render.engine,
+               turned=any(abs(a) > 1e-6 for a in ob.rotation_euler),
                samples=scene.unbound.samples, stats=dict(mod.engine.LAST_STATS))
     if keep:
         import shutil
@@ -77,3 +81,34 @@ def frame_in_camera_centres(S, mod):
     bpy.context.view_layer.update()
     after = mod.operators.silhouette(scene, ob)
     S.report(result=list(result), before=before, after=after, scale=list(ob.scale))
+
+
+def turn_to_fit(S, mod):
+    """Frame in Camera (centred, Turn to Fit) on the default Julia set added standing at the origin,
+    in the startup camera's 16:9 frame and in a 9:16 one: the silhouette's box (frame heights) before
+    and after, and the angle turned about the camera's view axis."""
+    out = {}
+    for name, (x, y) in (("wide", (1920, 1080)), ("tall", (1080, 1920))):
+        bpy.ops.wm.read_homefile(use_factory_startup=True)
+        scene = bpy.context.scene
+        scene.render.engine = 'UNBOUND'
+        scene.render.resolution_x, scene.render.resolution_y = x, y
+        assert bpy.ops.object.unbound_fractal_add() == {'FINISHED'}
+        ob = bpy.context.object
+        bpy.ops.object.unbound_frame_camera(turn=False)
+        aspect = x / y
+        sizes = []
+        before = ob.matrix_world.to_quaternion()
+        for turn in (False, True):
+            if turn:
+                result = bpy.ops.object.unbound_frame_camera(turn=True)
+            bpy.context.view_layer.update()
+            x0, y0, x1, y1 = mod.operators.silhouette(scene, ob)
+            sizes.append(((x1 - x0) * aspect, y1 - y0))
+        forward = scene.camera.matrix_world.to_3x3() @ mathutils.Vector((0.0, 0.0, -1.0))
+        turned = before.rotation_difference(ob.matrix_world.to_quaternion())
+        axis_along_view = abs(abs(turned.axis.dot(forward.normalized())) - 1.0) < 1e-4 or turned.angle < 1e-6
+        out[name] = dict(result=list(result), before_size=sizes[0], after_size=sizes[1],
+                         before_area=sizes[0][0] * sizes[0][1], after_area=sizes[1][0] * sizes[1][1],
+                         angle=math.degrees(turned.angle) if axis_along_view else -1.0)
+    S.report(**out)
