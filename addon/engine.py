@@ -55,7 +55,7 @@ def _fail(engine, message):
 # Bytes per pixel of a final render (issue 16, defect 4): every channel of every pass as float32 in
 # the add-on's buffers, in Blender's render result (one per view) and in Blender's copy of it for
 # the compositor and the file writer (one per view); and the core's hit buffer (ub_hit: t,
-# iterations, distance, steps, object). All passes, one view: 29 channels, 368 bytes per pixel.
+# iterations, distance, steps, object). All passes, one view: 35 channels, 440 bytes per pixel.
 HIT_BYTES = 20
 
 

@@ -994,21 +994,39 @@ def _output_socket(rl_node, name):
 NODE_PREFIX = "Unbound "
 
 
+def add_denoise(tree, rl, add):
+    """A Denoise node fed by the image and the Denoising Normal and Albedo passes, as Cycles'
+    compositing denoise is set up; returns its image output."""
+    node = add("CompositorNodeDenoise", "Denoise", 50, 200)
+    tree.links.new(rl.outputs["Image"], node.inputs["Image"])
+    for name in ("Normal", "Albedo"):
+        sock = _output_socket(rl, "Denoising " + name)
+        if sock is not None:
+            tree.links.new(sock, node.inputs[name])
+    return node.outputs["Image"]
+
+
 class UNBOUND_OT_setup_compositing(bpy.types.Operator):
-    """Add compositor nodes for Unbound's passes beside the user's own: the image to the output
-    (unless the tree has one), every enabled pass into a multilayer OpenEXR file, and a normalised
-    depth preview in a Viewer"""
+    """Add compositor nodes for Unbound's passes beside the user's own: the image (denoised with
+    Denoise) to the output (unless the tree has one), every enabled pass into a multilayer OpenEXR
+    file, and a normalised depth preview in a Viewer"""
     bl_idname = "scene.unbound_setup_compositing"
     bl_label = "Set Up Compositing"
     bl_options = {'REGISTER', 'UNDO'}
 
     directory: bpy.props.StringProperty(name="Directory", description="Where the pass files are written",
                                         default="//unbound_passes/", subtype='DIR_PATH')
+    denoise: bpy.props.BoolProperty(name="Denoise", description="Turn on the Denoising Data passes and denoise "
+                                    "the image with the Denoise node (OpenImageDenoise) fed by them, as Cycles' "
+                                    "denoising does; the denoised image goes to the output and the pass file",
+                                    default=True)
 
     def execute(self, context):
         scene = context.scene
         if scene.render.engine != utils.ENGINE_ID:
             scene.render.engine = utils.ENGINE_ID
+        if self.denoise:
+            context.view_layer.unbound.use_pass_denoising_data = True
         tree = utils.compositor_tree(scene, create=True)
         # The user's nodes stay (issue 16): only the nodes an earlier run of this operator made
         # (named with NODE_PREFIX) are replaced, and ours go below the user's.
@@ -1028,9 +1046,12 @@ class UNBOUND_OT_setup_compositing(bpy.types.Operator):
         rl = add("CompositorNodeRLayers", "Render Layers", -400, 0)
         rl.scene = scene
         rl.layer = context.view_layer.name
+        image = rl.outputs["Image"]
+        if self.denoise:
+            image = add_denoise(tree, rl, add)
         if not any(n.bl_idname == output_type for n in theirs):
             final = add(output_type, "Output", 300, 200)
-            tree.links.new(rl.outputs["Image"], final.inputs[0] if new_api else final.inputs["Image"])
+            tree.links.new(image, final.inputs[0] if new_api else final.inputs["Image"])
 
         viewer = add("CompositorNodeViewer", "Viewer", 300, -100)
         depth = _output_socket(rl, "Depth")
@@ -1066,6 +1087,12 @@ class UNBOUND_OT_setup_compositing(bpy.types.Operator):
                 target = fo.inputs[p.name]
             tree.links.new(sock, target)
             linked += 1
+        if self.denoise:
+            if new_api:
+                fo.file_output_items.new('RGBA', "Denoised")
+            else:
+                fo.layer_slots.new("Denoised")
+            tree.links.new(image, fo.inputs["Denoised"])
         self.report({'INFO'}, "Unbound: compositor writes %d passes to %s" % (linked, self.directory))
         return {'FINISHED'}
 

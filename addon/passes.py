@@ -30,7 +30,27 @@ PASSES = (
     RenderPass("Orbit Trap", 1, "X", 'VALUE', "orbit_trap", "use_pass_orbit_trap",
                "Closest approach of the orbit to the origin, min |z_k|"),
     RenderPass("Glow", 3, "RGB", 'COLOR', "glow", "use_pass_glow", "Glow from the marching steps"),
+    # Cycles' names and meaning, for the compositor's Denoise node (OpenImageDenoise): the first
+    # hit's surface colour and its normal in camera space, each averaged over the samples.
+    RenderPass("Denoising Albedo", 3, "RGB", 'COLOR', "denoising_albedo", "use_pass_denoising_data",
+               "Surface colour of the first hit, for the Denoise node"),
+    RenderPass("Denoising Normal", 3, "XYZ", 'VECTOR', "denoising_normal", "use_pass_denoising_data",
+               "Normal of the first hit in camera space, for the Denoise node"),
 )
+
+# A toggle several passes share: its label and description (Cycles' "Denoising Data").
+SHARED_TOGGLES = {"use_pass_denoising_data": ("Denoising Data", "Denoising Albedo and Denoising Normal, "
+                                              "Cycles' passes for the compositor's Denoise node")}
+
+
+def toggles():
+    """(toggle, label, description) of each pass toggle once, in the table's order."""
+    seen = {}
+    for p in PASSES:
+        if p.toggle and p.toggle not in seen:
+            seen[p.toggle] = SHARED_TOGGLES.get(p.toggle, (p.name, p.description))
+    return [(toggle, label, description) for toggle, (label, description) in seen.items()]
+
 
 # Combined = fog(Diffuse + Ambient + Reflection) + Glow, with fog the first segment's depth cue.
 

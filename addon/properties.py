@@ -367,12 +367,9 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
                                        soft_max=60.0, unit='TIME_ABSOLUTE')
 
 
-def _pass_toggle(p):
-    return BoolProperty(name=p.name, description=p.description, default=False)
-
-
 UnboundViewLayerSettings = type("UnboundViewLayerSettings", (bpy.types.PropertyGroup,), {
-    "__annotations__": {p.toggle: _pass_toggle(p) for p in passes.PASSES if p.toggle},
+    "__annotations__": {toggle: BoolProperty(name=label, description=description, default=False)
+                        for toggle, label, description in passes.toggles()},
     "__doc__": "Which of Unbound's passes this view layer writes",
 })
 

@@ -492,9 +492,8 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         props = context.view_layer.unbound
         col = layout.column(heading="Include", align=True)
-        for p in passes.PASSES:
-            if p.toggle:
-                col.prop(props, p.toggle)
+        for toggle, _label, _description in passes.toggles():
+            col.prop(props, toggle)
 
 
 classes = (UNBOUND_UL_ifs_maps, UNBOUND_UL_kifs_planes, UNBOUND_UL_hybrid_steps, UNBOUND_PT_fractal_hint, UNBOUND_PT_fractal_hint_object, UNBOUND_PT_fractal,

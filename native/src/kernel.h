@@ -457,6 +457,7 @@ typedef struct {
     float pass_diffuse[3][UB_LANES], pass_ambient[3][UB_LANES];
     double pos0[3][UB_LANES];
     float nrm0[3][UB_LANES];
+    float albedo0[3][UB_LANES];
     float primary_steps[UB_LANES], primary_iters[UB_LANES], primary_dist[UB_LANES];
     int primary_obj[UB_LANES];
     int unseen;             /* lanes outside a panoramic camera's lens */
@@ -483,6 +484,7 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
             ps->pass_diffuse[i][l] = ps->pass_ambient[i][l] = 0.0f;
             ps->pos0[i][l] = 0.0;
             ps->nrm0[i][l] = 0.0f;
+            ps->albedo0[i][l] = 0.0f;
         }
     }
     /* The camera rays' own results, kept for the passes: later bounces reuse tr. */
@@ -542,6 +544,7 @@ static int add_surface_light(const ub_shading *sh, int bounce, int hit_lanes, co
                 ps->pass_ambient[i][l] = amb[i];
                 ps->pos0[i][l] = sf->p[i][l];
                 ps->nrm0[i][l] = sf->n[i][l];
+                ps->albedo0[i][l] = sf->albedo[i][l];
             }
             ps->pass_ao[l] = ao[l];
             ps->pass_shadow[l] = shadow[l];
@@ -566,6 +569,16 @@ static int add_surface_light(const ub_shading *sh, int bounce, int hit_lanes, co
         next |= 1 << l;
     }
     return next;
+}
+
+/* World-space unit vector n in Cycles' camera space (x right, y up, z along the view axis: the
+ * space of Cycles' Denoising Normal pass), from the camera matrix's unit columns (camera.c). */
+static void to_camera_space(const ub_camera *cam, const float n[3], float out[3])
+{
+    const double(*m)[4] = cam->cam_to_world;
+    out[0] = (float)(n[0] * m[0][0] + n[1] * m[1][0] + n[2] * m[2][0]);
+    out[1] = (float)(n[0] * m[0][1] + n[1] * m[1][1] + n[2] * m[2][1]);
+    out[2] = (float)(n[0] * cam->forward[0] + n[1] * cam->forward[1] + n[2] * cam->forward[2]);
 }
 
 /* Every pass of the packet's n pixels at film row y, columns x.. (sample `sample`). */
@@ -622,6 +635,16 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
         put(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, PASS_AVERAGED);
         put(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &trap, sample, S, PASS_AVERAGED);
         put(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, PASS_AVERAGED);
+        if (film->pass[UB_PASS_DENOISING_ALBEDO]) {
+            float albedo[3] = {ps->albedo0[0][l], ps->albedo0[1][l], ps->albedo0[2][l]};
+            put(film->pass[UB_PASS_DENOISING_ALBEDO], idx, 3, hit ? albedo : zero3, sample, S, PASS_AVERAGED);
+        }
+        if (film->pass[UB_PASS_DENOISING_NORMAL]) {
+            float camera_normal[3];
+            to_camera_space(cam, normal, camera_normal);
+            put(film->pass[UB_PASS_DENOISING_NORMAL], idx, 3, hit ? camera_normal : zero3, sample, S,
+                PASS_AVERAGED);
+        }
     }
 }
 

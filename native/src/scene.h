@@ -242,6 +242,8 @@ typedef enum {
     UB_PASS_REFLECTION,   /* reflected light */
     UB_PASS_ORBIT_TRAP,   /* orbit trap value at the hit: min |z_k| over the orbit */
     UB_PASS_GLOW,         /* glow from the marching steps */
+    UB_PASS_DENOISING_ALBEDO, /* surface colour of the first hit, averaged (OpenImageDenoise's albedo) */
+    UB_PASS_DENOISING_NORMAL, /* first hit's normal in Cycles' camera space, averaged (OIDN's normal) */
     UB_PASS_COUNT
 } ub_pass_id;
 

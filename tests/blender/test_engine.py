@@ -69,3 +69,17 @@ def test_setup_compositing_writes_pass_file(run_bpy):
     r = run_bpy("engine.setup_compositing_writes_pass_file")
     assert len(r["files"]) == 1 and r["files"][0].endswith(".exr")
     assert {"Depth.V", "Normal.X"} <= set(r["channels"]) or any("Depth" in c for c in r["channels"])
+
+
+def test_denoise_node_fed_by_our_passes_lowers_the_error(run_bpy):
+    """Issue 19: Denoising Albedo and Normal feed Blender's Denoise node (OpenImageDenoise), which
+    Set Up Compositing adds; on a 1-sample render with soft shadows and one AO ray the denoised
+    image is closer (RMSE) to a 256-sample render than the raw one. Unbound's shading has no
+    Monte-Carlo noise yet (soft shadows and occlusion are deterministic estimates), so what the
+    denoiser removes is mostly aliasing: a small gain (measured 5 %), until path tracing."""
+    r = run_bpy("engine.denoise_lowers_the_error", timeout=600)
+    print({k: v for k, v in r.items() if k != "_output"})
+    assert r["fed"] == ["Albedo", "Image", "Normal"], r
+    assert {"Denoising Albedo.R", "Denoising Normal.X", "Denoised.R", "Combined.R"} <= set(r["layers"]), r
+    assert r["denoise_changed"], r
+    assert r["denoised"] < r["noisy"], r

@@ -166,3 +166,47 @@ def setup_compositing_writes_pass_file(S, mod):
     bpy.ops.render.render(write_still=True)
     files = sorted(os.listdir(out))
     S.report(files=files, channels=sorted(S.read_exr(os.path.join(out, files[0]))))
+
+
+def denoise_lowers_the_error(S, mod, samples=1, reference_samples=256):
+    """Set Up Compositing (Denoise on) on a noisy render (soft shadows, ambient occlusion with
+    few rays, `samples` samples): the multilayer pass file holds the image and the Denoised one;
+    both against a `reference_samples` render of the same scene (RMSE over the frame)."""
+    import time
+    scene = S.empty_scene(96, 72)
+    S.add_camera(scene, location=(1.5, -6.0, 3.0), target=(0.0, 0.0, -0.6))
+    S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0))   # the unit ball on a calm sea: smooth surfaces, so
+    # what differs from the reference is the noise of the soft shadow and the occlusion
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    sun.data.angle, sun.data.energy = 1.2, 2.0
+    sun.rotation_euler = (0.6, 0.3, 0.4)
+    scene.collection.objects.link(sun)
+    u = scene.unbound
+    u.shadows, u.ao_strength, u.ao_samples, u.ao_distance = 'SOFT', 1.0, 1, 0.5
+    u.ambient = (0.3, 0.3, 0.3)
+    u.use_sea, u.sea_height, u.sea_amplitude, u.sea_reflectivity = True, -1.0, 0.0, 0.0
+    out = os.path.join(os.environ["UNBOUND_TEST_TMP"], "denoise") + "/"
+    assert bpy.ops.scene.unbound_setup_compositing(directory=out) == {'FINISHED'}
+    tree = mod.utils.compositor_tree(scene)
+    node = tree.nodes["Unbound Denoise"]
+    fed = sorted(link.to_socket.name for link in tree.links if link.to_node == node)
+    images = {}
+    for name, count in (("noisy", samples), ("reference", reference_samples)):
+        u.samples = count
+        scene.render.filepath = os.path.join(os.environ["UNBOUND_TEST_TMP"], name + ".png")
+        started = time.perf_counter()
+        bpy.ops.render.render(write_still=True)
+        seconds = time.perf_counter() - started
+        files = sorted(os.listdir(out))
+        layers = S.read_exr(os.path.join(out, files[-1]))
+        os.remove(os.path.join(out, files[-1]))
+        images[name] = dict(seconds=seconds, layers=sorted(layers),
+                            image=np.stack([np.asarray(layers["Combined.%s" % c]) for c in "RGB"], -1),
+                            denoised=np.stack([np.asarray(layers["Denoised.%s" % c]) for c in "RGB"], -1))
+    ref = images["reference"]["image"]
+
+    def rmse(a):
+        return float(np.sqrt(np.mean((a - ref) ** 2)))
+    S.report(fed=fed, layers=images["noisy"]["layers"], noisy=rmse(images["noisy"]["image"]),
+             denoised=rmse(images["noisy"]["denoised"]), seconds=[v["seconds"] for v in images.values()],
+             denoise_changed=bool(np.any(images["noisy"]["image"] != images["noisy"]["denoised"])))
