@@ -146,10 +146,21 @@ static inline void de_quaternion(const ub_de_params *p, const int mandel, vf a, 
         else
             dr2 = v_select(active, v_mul(dr2, v_mul(four, r2)), dr2);
         vf nr2 = v_fma(na, na, v_fma(nb, nb, v_fma(nc, nc, v_mul(nd, nd))));
-        a = v_select(active, na, a);
-        b = v_select(active, nb, b);
-        c = v_select(active, nc, c);
-        d = v_select(active, nd, d);
+        if (want & UB_WANT_JACOBIAN) {
+            /* The normal below reads z_n of each lane at its escape: freeze it. */
+            a = v_select(active, na, a);
+            b = v_select(active, nb, b);
+            c = v_select(active, nc, c);
+            d = v_select(active, nd, d);
+        } else {
+            /* Nothing reads z after the loop: escaped lanes iterate on (to inf or NaN, harmless:
+             * r2, the derivative and the trap froze at the escape), and no blend sits on the
+             * loop-carried path of z (issue 21: 23.8 -> 13.8 cycles per iteration measured). */
+            a = na;
+            b = nb;
+            c = nc;
+            d = nd;
+        }
         active = orbit_step(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
         if (!m_bits(active))
             break;
