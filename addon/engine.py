@@ -53,16 +53,19 @@ def _fail(engine, message):
 
 
 # Bytes per pixel of a final render (issue 16, defect 4): every channel of every pass as float32 in
-# the add-on's buffers, in Blender's render result (one per view) and in Blender's copy of it for
-# the compositor and the file writer (one per view); and the core's hit buffer (ub_hit: t,
-# iterations, distance, steps, object). All passes, one view: 35 channels, 440 bytes per pixel.
+# Blender's render result and in Blender's copy of it for the compositor and the file writer (each
+# one per view). With several samples also the add-on's running sums and the core's hit buffer
+# (ub_hit: t, iterations, distance, steps, object) for the whole frame; with one sample only a
+# band's (_render_bands: about a sixteenth of the frame, counted as an eighth). All passes, one
+# view: 35 channels, 440 bytes per pixel with several samples, 300 with one.
 HIT_BYTES = 20
 
 
-def memory_estimate(width, height, wanted, views=1):
+def memory_estimate(width, height, wanted, views=1, samples=1):
     """(bytes, bytes per pixel) that a render of width x height pixels with passes `wanted` needs."""
     channels = sum(p.channels for p in wanted) + (0 if any(p.native == "depth" for p in wanted) else 1)
-    per_pixel = 4 * channels * (1 + 2 * views) + HIT_BYTES
+    working = 4 * channels + HIT_BYTES   # the add-on's buffers and the core's hit buffer
+    per_pixel = 4 * channels * 2 * views + (working if samples > 1 else -(-working // 8))
     return per_pixel * width * height, per_pixel
 
 
@@ -97,10 +100,10 @@ def memory_available():
     return available
 
 
-def memory_preflight(width, height, wanted, views=1):
+def memory_preflight(width, height, wanted, views=1, samples=1):
     """A RenderError before anything is allocated when the render cannot fit in memory: the figure,
     and what to turn off."""
-    needed, per_pixel = memory_estimate(width, height, wanted, views)
+    needed, per_pixel = memory_estimate(width, height, wanted, views, samples)
     available = memory_available()
     if available is None or needed <= available:
         return
@@ -164,6 +167,88 @@ def normalised(buffer, native, samples_done):
     return buffer * (np.float32(1.0) / np.float32(samples_done))
 
 
+def band_rows(height, tile_size):
+    """Rows of one band of a one-sample render: a sixteenth of the window in whole tiles (so the
+    threads share each band's tiles), at least one tile."""
+    rows = -(-height // 16)
+    rows = -(-rows // tile_size) * tile_size
+    return max(min(rows, height), 1)
+
+
+def _render_bands(engine, depsgraph, core, image, objects, shading, window, label):
+    """One sample, rendered band by band straight into Blender's result (begin_result and
+    end_result per band, as Cycles' tiles): Blender holds the one full copy of the passes, the
+    add-on only a band's, and each band appears in the Image Editor as it finishes. A cancel keeps
+    the bands done and the tiles done of the band in flight; a failure discards the band in flight
+    and reports (render() above: error_set, so no file is written). `image`: the full image's
+    width and height and the camera of the current view. Returns (stats, cancelled)."""
+    scene = depsgraph.scene
+    width, height, camera = image
+    x0, y0, w, h = window
+    options = dict(shading=shading, poll_interval=0.02, **export.render_options(scene))
+    rows = band_rows(h, options["tile_size"])
+    bands = -(-h // rows)
+    progress = Progress(engine, label, 1, 1)
+    cameras = {}
+    buffers = {}
+    totals = dict(rays=0, steps=0, iterations=0, seconds=0.0)
+    stats, ratio, cancelled = None, None, False
+    for band, top in enumerate(range(0, h, rows)):
+        bh = min(rows, h - top)
+        result = engine.begin_result(0, top, w, bh, layer=depsgraph.view_layer.name)
+        keep = False
+        try:
+            layer = result.layers[0]
+            views = [v.name for v in result.views] or [""]
+            names = {p.name for p in layer.passes}
+            present = [p for p in passes.PASSES if p.name in names]
+            for p in present:
+                if p.native not in buffers:
+                    buffers[p.native] = np.empty((rows, w, p.channels), np.float32)
+            # Depth is always rendered: the core's precision check reads it.
+            buffers.setdefault("depth", np.empty((rows, w, 1), np.float32))
+            band_buffers = {n: b[:bh] for n, b in buffers.items()}
+            for index, view in enumerate(views):
+                if view not in cameras:
+                    if len(views) > 1:
+                        engine.active_view_set(view)
+                    cameras[view] = camera if len(views) == 1 else \
+                        export.camera_description(engine, depsgraph, width, height)
+                for b in band_buffers.values():
+                    b.fill(0.0)  # what a cancel does not reach stays transparent black
+
+                def poll(fraction, band=band, index=index):
+                    return progress.update(0, 0, (band + (index + fraction) / len(views)) / bands)
+
+                stats = core.render(cameras[view], objects, band_buffers, progress=poll,
+                                    window=(x0, y0 + top, w, bh), **options)
+                for key in totals:
+                    totals[key] += stats[key]
+                if stats.get("footprint_ratio") is not None:
+                    ratio = stats["footprint_ratio"] if ratio is None else min(ratio, stats["footprint_ratio"])
+                for p in present:
+                    found = layer.passes.find_by_name(p.name, view)
+                    if found is None:
+                        raise RenderError("Blender's result has no pass %s for view '%s'" % (p.name, view))
+                    found.rect.foreach_set(band_buffers[p.native].ravel())
+                if stats["cancelled"]:
+                    cancelled = True
+                    break
+            keep = True
+        finally:
+            engine.end_result(result, cancel=not keep)
+        # Esc between bands too: a band can end before the core's first poll.
+        if cancelled or (top + bh < h and progress.update(0, 0, (band + 1) / bands, force=True)):
+            cancelled = True
+            break
+    stats = dict(stats, cancelled=cancelled, samples_done=0 if cancelled else 1, **totals)
+    if ratio is not None:
+        stats["footprint_ratio"] = ratio
+    LAST_STATS.clear()
+    LAST_STATS.update(stats)
+    return stats, cancelled
+
+
 def _render(engine, depsgraph):
     scene = depsgraph.scene
     view_layer = depsgraph.view_layer
@@ -175,11 +260,17 @@ def _render(engine, depsgraph):
     wanted = passes.enabled(view_layer)
     w, h = window[2], window[3]
     views = [v.name for v in scene.render.views if v.use] if scene.render.use_multiview else [""]
-    memory_preflight(w, h, wanted, max(len(views), 1))
+    samples = int(shading.get("samples", 1))
+    memory_preflight(w, h, wanted, max(len(views), 1), samples)
     frame = scene.frame_current
     label = "Frame %d | %s" % (frame, view_layer.name)
-    samples = int(shading.get("samples", 1))
     engine.update_stats("", "Unbound | %s | %d fractal object%s" % (label, len(objects), "" if len(objects) == 1 else "s"))
+    if samples == 1:
+        started = time.perf_counter()
+        stats, cancelled = _render_bands(engine, depsgraph, core, (width, height, camera), objects, shading, window,
+                                         label)
+        _finish(engine, core, label, stats, cancelled, stats["samples_done"], 1, time.perf_counter() - started)
+        return
     # The result covers the window: Blender places it in the full frame (or crops to it). It holds
     # the passes registered when the render started; a handler may have toggled one since (an
     # animation's frame_change_pre): exactly the result's passes are rendered and written.
@@ -264,13 +355,17 @@ def _render(engine, depsgraph):
         keep = True
     finally:
         engine.end_result(result, cancel=not keep)
+    _finish(engine, core, label, stats, cancelled, done, samples, time.perf_counter() - started)
+
+
+def _finish(engine, core, label, stats, cancelled, done, samples, elapsed):
+    """The stats line, the progress bar and the precision warning after a render."""
     if cancelled:
         engine.update_stats("", "Unbound | %s | cancelled after %d of %d samples (kept)" % (label, done, samples))
         return
     warning = precision_warning(core, stats)
     if warning:
         engine.report({'WARNING'}, "Unbound: " + warning)
-    elapsed = time.perf_counter() - started
     engine.update_progress(1.0)
     engine.update_stats("", "Unbound | %s | %s | %d sample%s | %.1f Mrays/s | %s, %d threads" % (
         label, clock(elapsed), samples, "" if samples == 1 else "s",

@@ -6,7 +6,12 @@ render of all samples into the same buffers (what the engine did before), the sa
 with min-max over --repeats rounds of wall time and of this process's CPU time (the machine may be
 shared: the CPU ratio is the steadier figure).
 
-    python bench/bench_f12.py [--repeats 3] [--res 1920x1080]
+With --memory: the peak resident memory of one F12 at --res with every pass on, 1 sample, against
+one copy of the passes (4 bytes per channel per pixel) and against a bare core call into one copy;
+each measured in a fresh process (the peak is a process's high-water mark: ru_maxrss after the
+render minus before it, the scene built and a small render done first).
+
+    python bench/bench_f12.py [--repeats 3] [--res 1920x1080] [--memory]
 """
 import argparse
 import os
@@ -49,12 +54,70 @@ def summary(values):
     return "%.3f (%.3f-%.3f)" % (statistics.median(values), min(values), max(values))
 
 
+def peak_rss_bytes():
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024   # kilobytes on Linux
+
+
+def memory_child(mode, width, height):
+    """One render in this fresh process (`mode` 'f12' or 'core'), every pass on, 1 sample: prints
+    the growth of the peak resident memory and the size of one copy of the passes."""
+    module = ensure_extension(prog="bench_f12")
+    export = sys.modules[module + ".export"]
+    passes = sys.modules[module + ".passes"]
+    core = sys.modules[module + ".utils"].native()
+    scene = new_scene(width, height, world_color=(0.05, 0.05, 0.05))
+    add_camera(scene, (0.4, -3.0, 0.9), (0.0, 0.0, 0.0), lens=50.0)
+    bpy.ops.object.unbound_fractal_add(use_cursor=False)
+    vl = scene.view_layers[0]
+    for toggle, _label, _description in passes.toggles():
+        setattr(vl.unbound, toggle, True)
+    channels = sum(p.channels for p in passes.PASSES)
+    dg = bpy.context.evaluated_depsgraph_get()
+    scene.render.resolution_percentage = 10
+    bpy.ops.render.render()   # Blender's and the core's one-time allocations, at a tenth of the size
+    scene.render.resolution_percentage = 100
+    dg = bpy.context.evaluated_depsgraph_get()
+    before = peak_rss_bytes()
+    if mode == "f12":
+        bpy.ops.render.render()
+    else:
+        camera = export.camera_description(EyeCamera(), dg, width, height)
+        buffers = {p.native: np.zeros((height, width, p.channels), np.float32) for p in passes.PASSES}
+        buffers["alpha"] = np.zeros((height, width, 1), np.float32)
+        core.render(camera, export.fractal_objects(dg), buffers, shading=export.shading_description(dg),
+                    **export.render_options(scene))
+    print("MEMORY %s %d %d" % (mode, peak_rss_bytes() - before, 4 * channels * width * height))
+
+
+def memory(width, height, repeats):
+    import subprocess
+    rows = {}
+    for _ in range(repeats):
+        for mode in ("f12", "core"):
+            out = subprocess.run([sys.executable, __file__, "--memory-child", mode, "--res", "%dx%d" % (width, height)],
+                                 capture_output=True, text=True, check=True).stdout
+            line = [x for x in out.splitlines() if x.startswith("MEMORY ")][-1].split()
+            rows.setdefault(mode, []).append(int(line[2]))
+            copy = int(line[3])
+    for mode, values in rows.items():
+        print("%s at %dx%d, every pass, 1 sample: peak growth %s MB = %s copies of the passes (one copy %.0f MB)"
+              % ("F12" if mode == "f12" else "bare core call", width, height, summary([v / 1e6 for v in values]),
+                 summary([v / copy for v in values]), copy / 1e6))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--res", default="1920x1080")
+    ap.add_argument("--memory", action="store_true")
+    ap.add_argument("--memory-child", choices=("f12", "core"))
     args = ap.parse_args()
     width, height = map(int, args.res.split("x"))
+    if args.memory_child:
+        return memory_child(args.memory_child, width, height)
+    if args.memory:
+        return memory(width, height, args.repeats)
     module = ensure_extension(prog="bench_f12")
     export = sys.modules[module + ".export"]
     core = sys.modules[module + ".utils"].native()

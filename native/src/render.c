@@ -171,11 +171,17 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         return isa_error;
     const ub_film *film = scene_in->film;
     const ub_camera *cam = scene_in->camera;
-    /* The hit buffer: the film plus a one-pixel apron inside the image, on the film's grid. */
+    /* The hit buffer: the film plus a one-pixel apron inside the image, on the film's grid, when
+     * an object's normals read the neighbouring pixels' hits (eq. 12-14); else the film alone, so
+     * that a window or a band of the image traces no ray twice. */
     ub_hit_buffer hb;
     const int step = film->step;
-    int left = film->x0 >= step, bottom = film->y0 >= step;
-    int right = film->x0 + step * film->w < cam->width, top = film->y0 + step * film->h < cam->height;
+    int apron = 0;
+    for (int k = 0; k < scene_in->object_count; k++)
+        apron |= scene_in->objects[k].normal_method == UB_NORMAL_ZBUFFER;
+    int left = apron && film->x0 >= step, bottom = apron && film->y0 >= step;
+    int right = apron && film->x0 + step * film->w < cam->width;
+    int top = apron && film->y0 + step * film->h < cam->height;
     hb.step = step;
     hb.x0 = film->x0 - left * step;
     hb.y0 = film->y0 - bottom * step;

@@ -32,7 +32,15 @@ def test_window_equals_crop_of_full_image():
     full, _ = render(cam, [OBJ])
     win = (13, 7, 41, 29)
     part, stats = render(cam, [OBJ], window=win)
-    # Camera rays cover the window plus a one-pixel apron (the Z-buffer normals read neighbours).
+    # Camera rays cover the window alone: no normal method here reads the neighbours' hits.
+    assert stats["rays"] == 41 * 29
+    for k in full:
+        assert np.array_equal(part[k], full[k][7:36, 13:54], equal_nan=True), k
+    # With Z-buffer normals (eq. 12-14) the window's camera rays take a one-pixel apron, so that
+    # its edge pixels' normals equal the full image's.
+    zbuffer = dict(OBJ, normal_method="zbuffer")
+    full, _ = render(cam, [zbuffer])
+    part, stats = render(cam, [zbuffer], window=win)
     assert stats["rays"] == (41 + 2) * (29 + 2)
     for k in full:
         assert np.array_equal(part[k], full[k][7:36, 13:54], equal_nan=True), k

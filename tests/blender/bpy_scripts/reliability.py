@@ -43,9 +43,10 @@ def memory_preflight(S, mod, limit_gb=None):
             setattr(vl.unbound, p.toggle, True)
     big = S.attempt(scene, "big.png")
     needed, per_pixel = mod.engine.memory_estimate(1920, 1080, mod.passes.enabled(vl))
+    _, per_pixel_samples = mod.engine.memory_estimate(1920, 1080, mod.passes.enabled(vl), samples=8)
     scene.render.resolution_x, scene.render.resolution_y = 32, 24
     small = S.attempt(scene, "small.png")
-    S.report(big=big, small=small, per_pixel=per_pixel, needed=needed)
+    S.report(big=big, small=small, per_pixel=per_pixel, needed=needed, per_pixel_samples=per_pixel_samples)
 
 
 def passes_toggled_during_animation(S, mod):
