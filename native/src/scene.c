@@ -10,9 +10,9 @@
 
 const char *const ub_pass_names[UB_PASS_COUNT] = {
     "combined", "alpha", "depth", "normal", "position", "iterations", "steps", "distance",
-    "ao", "shadow", "diffuse", "ambient", "reflection", "orbit_trap", "glow",
+    "ao", "shadow", "diffuse", "ambient", "reflection", "orbit_trap", "glow", "max_steps",
 };
-const int ub_pass_channels[UB_PASS_COUNT] = {4, 1, 1, 3, 3, 1, 1, 1, 1, 1, 3, 3, 3, 1, 3};
+const int ub_pass_channels[UB_PASS_COUNT] = {4, 1, 1, 3, 3, 1, 1, 1, 1, 1, 3, 3, 3, 1, 3, 1};
 
 /* Radical inverse in base b of i: the Halton sequence's coordinate. */
 static double radical_inverse(int i, int b)
