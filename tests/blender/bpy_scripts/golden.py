@@ -8,9 +8,18 @@ import numpy as np
 KINDS = ["QUATERNION_JULIA", "QUATERNION_MANDELBROT", "JULIA_STACK", "CUBIC_LOCUS", "IFS"]
 
 
+# Passes added after the hashes were recorded (issue 18's Max Steps: 0 in every scene here), left off so
+# the hashes still say that adding them changed no pixel of these; their own tests check them.
+LATER_TOGGLES = {"use_pass_max_steps"}
+
+
+def recorded_passes(mod):
+    return [p for p in mod.passes.PASSES if p.toggle not in LATER_TOGGLES]
+
+
 def all_passes(mod, scene):
     vl = scene.view_layers[0]
-    for p in mod.passes.PASSES:
+    for p in recorded_passes(mod):
         if p.toggle:
             setattr(vl.unbound, p.toggle, True)
 
@@ -142,4 +151,4 @@ def same_pixels_as_recorded(S, mod):
         hits[name] = float((exr["ViewLayer.Depth.Z"] < 1e9).mean())
         channels[name] = len(exr)
     S.report(hashes=hashes, hits=hits, channels=channels, blender=bpy.app.version_string,
-             pass_channels=sum(p.channels for p in mod.passes.PASSES))
+             pass_channels=sum(p.channels for p in recorded_passes(mod)))
