@@ -10,8 +10,8 @@ import numpy as np
 from . import export, passes, utils
 from .export import RenderError
 
-# Counters of the most recent render in this process (rays, steps, iterations, seconds, threads,
-# simd, cancelled), for scripts and tests.
+# Counters of the most recent render in this process (rays, steps, iterations, out_of_steps, seconds,
+# threads, simd, cancelled, camera_rays), for scripts and tests.
 LAST_STATS = {}
 
 
@@ -24,6 +24,23 @@ def precision_warning(core, stats):
     return ("a pixel covers %.1e of the fractal's size here, finer than single precision resolves "
             "(%.0e): expect steps in depth and shading. Zoom out or move the camera back "
             "(README: Precision)" % (ratio, core.PRECISION_LIMIT))
+
+
+# A warning when more than this share of a render's camera rays (every sample, every view) ran out of
+# Max Steps: each shows what lies behind it (the background mostly) where the fractal may be. 1e-4 is
+# 3 pixels of 200 x 150 and 207 of 1920 x 1080: a few stray rays in a large image are let through.
+MAX_STEPS_SHARE = 1e-4
+
+
+def max_steps_warning(stats, camera_rays):
+    """A message when more than MAX_STEPS_SHARE of `camera_rays` ran out of Max Steps before they hit or
+    left a fractal (the core counts them: stats['out_of_steps'])."""
+    count = stats.get("out_of_steps", 0)
+    if camera_rays <= 0 or count <= MAX_STEPS_SHARE * camera_rays:
+        return None
+    return ("%d of %d camera rays (%.2g%%) ran out of Max Steps before they hit or left the fractal and show "
+            "what lies behind it: raise Max Steps or coarsen the threshold (Object Data > Unbound Fractal > "
+            "Quality); the Max Steps pass shows where" % (count, camera_rays, 100.0 * count / camera_rays))
 
 
 def update_render_passes(engine, scene, view_layer):
@@ -55,9 +72,10 @@ def _fail(engine, message):
 # Bytes per pixel of a final render (issue 16, defect 4): every channel of every pass as float32 in
 # Blender's render result and in Blender's copy of it for the compositor and the file writer (each
 # one per view). With several samples also the add-on's running sums and the core's hit buffer
-# (ub_hit: t, iterations, distance, steps, object) for the whole frame; with one sample only a
-# band's (_render_bands: about a sixteenth of the frame, counted as an eighth). All passes, one
-# view: 35 channels, 440 bytes per pixel with several samples, 300 with one.
+# (ub_hit: t, iterations, distance, steps, a 16-bit object and out-of-steps flag) for the whole
+# frame; with one sample only a band's (_render_bands: about a sixteenth of the frame, counted as
+# an eighth). All passes, one view: 36 channels, 452 bytes per pixel with several samples, 309
+# with one.
 HIT_BYTES = 20
 
 
@@ -191,7 +209,8 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
     progress = Progress(engine, label, 1, 1)
     cameras = {}
     buffers = {}
-    totals = dict(rays=0, steps=0, iterations=0, seconds=0.0)
+    totals = dict(rays=0, steps=0, iterations=0, out_of_steps=0, seconds=0.0)
+    camera_rays = 0  # of the result's pixels, every view rendered
     stats, ratio, cancelled = None, None, False
     for band, top in enumerate(range(0, h, rows)):
         bh = min(rows, h - top)
@@ -234,6 +253,7 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
                 if stats["cancelled"]:
                     cancelled = True
                     break
+                camera_rays += w * bh
             keep = True
         finally:
             engine.end_result(result, cancel=not keep)
@@ -241,7 +261,7 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
         if cancelled or (top + bh < h and progress.update(0, 0, (band + 1) / bands, force=True)):
             cancelled = True
             break
-    stats = dict(stats, cancelled=cancelled, samples_done=0 if cancelled else 1, **totals)
+    stats = dict(stats, cancelled=cancelled, samples_done=0 if cancelled else 1, camera_rays=camera_rays, **totals)
     if ratio is not None:
         stats["footprint_ratio"] = ratio
     LAST_STATS.clear()
@@ -293,7 +313,8 @@ def _render(engine, depsgraph):
         summed = [n for n in buffers if n not in passes.SAMPLE_ZERO] if samples > 1 else []
         backup = {n: np.empty_like(buffers[n]) for n in summed}
         progress = Progress(engine, label, len(views), samples)
-        totals = dict(rays=0, steps=0, iterations=0, seconds=0.0)
+        totals = dict(rays=0, steps=0, iterations=0, out_of_steps=0, seconds=0.0)
+        camera_rays = 0  # of the result's pixels, every sample and view rendered
         options = dict(window=window, shading=shading, poll_interval=0.02, **export.render_options(scene))
         started = time.perf_counter()
         uploading = 0.0
@@ -338,6 +359,7 @@ def _render(engine, depsgraph):
                         np.copyto(buffers[n], backup[n])
                     break
                 done = sample + 1
+                camera_rays += w * h
                 progress.update(index, sample + 1 if done < samples else sample, 0.0 if done < samples else 1.0,
                                 force=True)
                 if done < samples and uploading <= UPDATE_SHARE * (time.perf_counter() - started):
@@ -349,7 +371,7 @@ def _render(engine, depsgraph):
             write(view, done)
             if cancelled:
                 break
-        stats = dict(stats, cancelled=cancelled, samples_done=done, **totals)
+        stats = dict(stats, cancelled=cancelled, samples_done=done, camera_rays=camera_rays, **totals)
         LAST_STATS.clear()
         LAST_STATS.update(stats)
         keep = True
@@ -363,9 +385,9 @@ def _finish(engine, core, label, stats, cancelled, done, samples, elapsed):
     if cancelled:
         engine.update_stats("", "Unbound | %s | cancelled after %d of %d samples (kept)" % (label, done, samples))
         return
-    warning = precision_warning(core, stats)
-    if warning:
-        engine.report({'WARNING'}, "Unbound: " + warning)
+    for warning in (precision_warning(core, stats), max_steps_warning(stats, stats["camera_rays"])):
+        if warning:
+            engine.report({'WARNING'}, "Unbound: " + warning)
     engine.update_progress(1.0)
     engine.update_stats("", "Unbound | %s | %s | %d sample%s | %.1f Mrays/s | %s, %d threads" % (
         label, clock(elapsed), samples, "" if samples == 1 else "s",

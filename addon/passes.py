@@ -30,6 +30,9 @@ PASSES = (
     RenderPass("Orbit Trap", 1, "X", 'VALUE', "orbit_trap", "use_pass_orbit_trap",
                "Closest approach of the orbit to the origin, min |z_k|"),
     RenderPass("Glow", 3, "RGB", 'COLOR', "glow", "use_pass_glow", "Glow from the marching steps"),
+    RenderPass("Max Steps", 1, "X", 'VALUE', "max_steps", "use_pass_max_steps",
+               "1 where the camera ray ran out of Max Steps before it hit or left the fractal (it shows what "
+               "lies behind, the background mostly), 0 elsewhere; the fraction of the samples that did"),
     # Cycles' names and meaning, for the compositor's Denoise node (OpenImageDenoise): the first
     # hit's surface colour and its normal in camera space, each averaged over the samples.
     RenderPass("Denoising Albedo", 3, "RGB", 'COLOR', "denoising_albedo", "use_pass_denoising_data",

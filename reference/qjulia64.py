@@ -64,20 +64,28 @@ def distance_estimate(q, mu, max_iterations, bailout, theta=0.0):
     return np.where(escaped, np.nan_to_num(d, nan=0.0, posinf=0.0), 0.0), n
 
 
-def render(camera, obj, width, height, max_steps=2000):
+def render(camera, obj, width, height, max_steps=None):
     """Straightforward float64 image of one object: the same method as the native core, vectorised
     over all rays with numpy. The object must have the identity transform and the default slice
-    (1, i, j at k = 0, theta = 0); its keys mu, max_iterations, bailout and color are read.
+    (1, i, j at k = 0, theta = 0); its keys mu, max_iterations, bailout, color, threshold_mode
+    ("pixel": the pixel footprint / detail, or "fixed": epsilon), epsilon, detail and max_steps
+    (the argument, else the key, else 2000) are read.
 
     camera is the native camera dict (matrix = camera to world, projection = 4x4, rows).
     Rows of the result run bottom to top, like the native passes. Returns dict(alpha=(H, W) bool,
     depth=(H, W) distance along the view axis (0 for misses), combined=(H, W, 3) Lambert with the
-    light at the eye, iterations=total formula iterations, steps=marching steps, rays=H*W)."""
+    light at the eye, march_steps=(H, W) marching steps of each ray, exhausted=(H, W) bool: rays
+    still marching after max_steps steps (neither a hit nor out of the bounding ball),
+    iterations=total formula iterations, steps=marching steps, rays=H*W)."""
     W, H = int(width), int(height)
     mu = np.asarray(obj.get("mu", (-0.2, 0.8, 0.0, 0.0)), np.float64)
     max_it = int(obj.get("max_iterations", 16))
     bailout = float(obj.get("bailout", 4.0))
     color = np.asarray(obj.get("color", (0.8, 0.8, 0.8)), np.float64)
+    max_steps = int(obj.get("max_steps", 2000) if max_steps is None else max_steps)
+    fixed = obj.get("threshold_mode", "pixel") == "fixed"
+    epsilon = float(obj.get("epsilon", 1e-3))
+    detail = float(obj.get("detail", 1.0))
     bisection_steps = 10
 
     # Camera: rotation columns normalised (the camera's scale is ignored), eye at the translation.
@@ -86,6 +94,10 @@ def render(camera, obj, width, height, max_steps=2000):
     eye, forward = cam[:3, 3], -rot[:, 2]
     proj = np.asarray(camera["projection"], np.float64)
     footprint = min(2.0 / (W * abs(proj[0, 0])), 2.0 / (H * abs(proj[1, 1])))  # per unit distance
+
+    def threshold(t):
+        """Hit threshold at distance t from the eye (the identity transform: object = world units)."""
+        return np.full_like(t, epsilon) if fixed else t * footprint / detail
     inv_proj = np.linalg.inv(proj)
 
     # One ray per pixel centre; NDC y = -1 is the bottom row (row 0).
@@ -120,37 +132,41 @@ def render(camera, obj, width, height, max_steps=2000):
         total_iterations += int(n.sum())
         return d
 
-    # March by unbounding spheres: step by d until d < eps(t) = t * footprint.
+    # March by unbounding spheres: step by d until d < eps(t).
     n_rays = W * H
     t = t_start.copy()
     t_miss = t_start.copy()  # last sample outside the threshold
     hit = np.zeros(n_rays, bool)
+    march_steps = np.zeros(n_rays, np.int64)
     active = np.flatnonzero(marching)
     for _ in range(max_steps):
         if active.size == 0:
             break
         total_steps += active.size
+        march_steps[active] += 1
         d = de(active, t[active])
-        is_hit = d < t[active] * footprint
+        is_hit = d < threshold(t[active])
         hit[active[is_hit]] = True
         go = active[~is_hit]
         t_miss[go] = t[go]
         t[go] += d[~is_hit]
         active = go[t[go] <= t_end[go]]
+    exhausted = np.zeros(n_rays, bool)
+    exhausted[active] = True
 
     # Refine: bisect between the last miss and the hit.
     idx = np.flatnonzero(hit)
     lo, hi = t_miss[idx], t[idx]
     for _ in range(bisection_steps):
         mid = 0.5 * (lo + hi)
-        inside = de(idx, mid) < mid * footprint
+        inside = de(idx, mid) < threshold(mid)
         hi = np.where(inside, mid, hi)
         lo = np.where(inside, lo, mid)
     t[idx] = hi
 
     # Normals: central differences of d with offset eps(t_hit) (eq. 15); Lambert, light at the eye.
     points = eye + t[idx, None] * dirs[idx]
-    h = t[idx] * footprint
+    h = t[idx] * footprint  # eq. 15's step, the pixel footprint in either threshold mode
     grad = np.zeros((idx.size, 3))
     for axis in range(3):
         off = np.zeros((idx.size, 3))
@@ -171,4 +187,5 @@ def render(camera, obj, width, height, max_steps=2000):
     combined = np.zeros((n_rays, 3))
     combined[idx] = lambert[:, None] * color
     return dict(alpha=alpha.reshape(H, W), depth=depth.reshape(H, W), combined=combined.reshape(H, W, 3),
+                march_steps=march_steps.reshape(H, W), exhausted=exhausted.reshape(H, W),
                 iterations=total_iterations, steps=total_steps, rays=n_rays)

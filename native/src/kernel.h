@@ -98,7 +98,8 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
                 h->iterations = tr.iters[l];
                 h->distance = tr.dist[l];
                 h->steps = tr.steps[l];
-                h->object = tr.object[l];
+                h->object = (int16_t)tr.object[l];
+                h->out_of_steps = (int16_t)tr.out_of_steps[l];
                 cnt->rays++;
                 cnt->steps += (uint64_t)tr.steps[l];
             }
@@ -459,7 +460,7 @@ typedef struct {
     float nrm0[3][UB_LANES];
     float albedo0[3][UB_LANES];
     float primary_steps[UB_LANES], primary_iters[UB_LANES], primary_dist[UB_LANES];
-    int primary_obj[UB_LANES];
+    int primary_obj[UB_LANES], primary_out_of_steps[UB_LANES];
     int unseen;             /* lanes outside a panoramic camera's lens */
 } ub_paths;
 
@@ -474,6 +475,7 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
         tr->dist[l] = h->distance;
         tr->steps[l] = h->steps;
         tr->object[l] = h->object;
+        tr->out_of_steps[l] = h->out_of_steps;
         ps->W[l] = 1.0f;
         ps->Wr[l] = 0.0f;
         ps->pass_ao[l] = 1.0f;
@@ -492,6 +494,7 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
     memcpy(ps->primary_iters, tr->iters, sizeof ps->primary_iters);
     memcpy(ps->primary_dist, tr->dist, sizeof ps->primary_dist);
     memcpy(ps->primary_obj, tr->object, sizeof ps->primary_obj);
+    memcpy(ps->primary_out_of_steps, tr->out_of_steps, sizeof ps->primary_out_of_steps);
 }
 
 /* Lanes of `alive` that missed everything see the world (the background colour, unfogged);
@@ -581,8 +584,10 @@ static void to_camera_space(const ub_camera *cam, const float n[3], float out[3]
     out[2] = (float)(n[0] * cam->forward[0] + n[1] * cam->forward[1] + n[2] * cam->forward[2]);
 }
 
-/* Every pass of the packet's n pixels at film row y, columns x.. (sample `sample`). */
-static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, const ub_paths *ps)
+/* Every pass of the packet's n pixels at film row y, columns x.. (sample `sample`); counts the
+ * camera rays that ran out of steps. */
+static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, const ub_paths *ps,
+                         ub_counters *cnt)
 {
     const ub_camera *cam = sc->camera;
     const ub_film *film = sc->film;
@@ -620,6 +625,9 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
         float amb[3] = {ps->pass_ambient[0][l], ps->pass_ambient[1][l], ps->pass_ambient[2][l]};
         float steps = ps->primary_steps[l], ao = ps->pass_ao[l], shadow = ps->pass_shadow[l];
         float trap = ps->pass_trap[l];
+        /* Lanes outside a panoramic lens were not traced: never out of steps. */
+        float out_of_steps = ps->primary_out_of_steps[l] && !unseen ? 1.0f : 0.0f;
+        cnt->out_of_steps += out_of_steps > 0.0f;
         put(film->pass[UB_PASS_COMBINED], idx, 4, rgba, sample, S, PASS_AVERAGED);
         put(film->pass[UB_PASS_ALPHA], idx, 1, &alpha, sample, S, PASS_AVERAGED);
         put(film->pass[UB_PASS_DEPTH], idx, 1, &depthf, sample, S, PASS_DATA);
@@ -635,6 +643,7 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
         put(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, PASS_AVERAGED);
         put(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &trap, sample, S, PASS_AVERAGED);
         put(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, PASS_AVERAGED);
+        put(film->pass[UB_PASS_MAX_STEPS], idx, 1, &out_of_steps, sample, S, PASS_AVERAGED);
         if (film->pass[UB_PASS_DENOISING_ALBEDO]) {
             float albedo[3] = {ps->albedo0[0][l], ps->albedo0[1][l], ps->albedo0[2][l]};
             put(film->pass[UB_PASS_DENOISING_ALBEDO], idx, 3, hit ? albedo : zero3, sample, S, PASS_AVERAGED);
@@ -708,7 +717,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                     return;
                 alive = add_surface_light(sh, bounce, hit_lanes, &sf, direct, shadow, ao, &tr, &pr, &ps);
             }
-            write_passes(sc, sample, x, y, n, &ps);
+            write_passes(sc, sample, x, y, n, &ps, cnt);
         }
     }
 }

@@ -70,11 +70,19 @@ typedef struct {
     vf iters;  /* escape count there */
     vf dist;   /* world-space estimate there */
     vm hit;
+    vm out_of_steps; /* still marching after max_steps: neither a hit nor out of the ball */
 } ub_march_result;
 
 static inline vf threshold(const ub_de_params *p, vf t)
 {
     return v_fma(p->eps1, t, p->eps0);
+}
+
+/* The float32 resolution of the marching parameter s: at least one ulp of s (FLT_EPSILON s is
+ * between one and two), so s + resolution(s) > s always. */
+static inline vf resolution(vf s)
+{
+    return v_mul(s, v_set1(FLT_EPSILON));
 }
 
 /* March one object's rays by unbounding spheres (section 3): step by the distance estimate
@@ -101,7 +109,7 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     vf s = v_set1(0.0f), prev = s, iter_sum = s, dist = s, iters = s, dw = s;
     vm active = m_from_bits(lanes), hit = m_false();
     /* A cancelled march returns no hits (its caller still reads the result). */
-    res->hit = hit;
+    res->hit = res->out_of_steps = hit;
     res->s = res->iters = res->dist = s;
     for (int step = 0; step < o->max_steps && m_bits(active); step++) {
         if (cancelled(sc))
@@ -113,6 +121,18 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
         *steps = v_count(*steps, active);
         iter_sum = v_add(iter_sum, v_select(active, iters, v_set1(0.0f)));
         vm is_hit = m_and(active, v_lt(dw, eps));
+        /* Issue 18: a step moves s by at least its resolution wherever the estimate allows it
+         * (a step_factor or max_step below the resolution would stall the ray otherwise), never
+         * by more than the estimate, so it never passes the set. Where the estimate itself is so
+         * small that s + step rounds back to s (a fixed epsilon of 1e-7 a few units into the
+         * ball), the ray can get no closer in float32: the estimate is below half an ulp of s
+         * (a step of at least min(d, resolution) did not move it), s is the closest point float32
+         * represents, and that is the hit (at the resolution limit), not a ray that stalls until
+         * it runs out of steps and shows the background where the set is. Rays that still move
+         * march on exactly as before. */
+        vf step_len = v_max(v_min(v_mul(dw, factor), max_step), v_min(dw, resolution(s)));
+        vf next = v_add(s, step_len);
+        is_hit = m_or(is_hit, m_and(active, v_le(next, s)));
         if (penumbra) {
             /* NaN (0/0 for a point source at the origin) leaves the minimum unchanged. */
             vf ratio = v_div(v_sub(dw, eps), v_mul(tan_angle, v_add(te, s)));
@@ -120,13 +140,14 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
         }
         hit = m_or(hit, is_hit);
         active = m_andnot(is_hit, active);
-        vf step_len = v_min(v_mul(dw, factor), max_step);
         prev = v_select(active, s, prev);
-        s = v_select(active, v_add(s, step_len), s);
+        s = v_select(active, next, s);
         active = m_and(active, v_le(s, s_max));
     }
     /* The last evaluation was at every lane's frozen s: a hit lane's estimate and escape count. */
     res->hit = hit;
+    /* A cancel returns above, so lanes still active here ran out of steps (where s froze). */
+    res->out_of_steps = active;
     res->iters = iters;
     res->dist = dw;
     /* Optional refinement: bisect between the last sample outside the threshold and the hit.
@@ -158,6 +179,9 @@ typedef struct {
     float t[UB_LANES], iters[UB_LANES], dist[UB_LANES], steps[UB_LANES];
     float penumbra[UB_LANES]; /* shadow rays: visibility estimate of an unblocked ray, in [0, 1] */
     int object[UB_LANES];     /* index, UB_HIT_NONE or UB_HIT_SEA */
+    /* An object's march ran out of max_steps in front of what the ray shows: the ray may have
+     * missed a surface there (UB_PASS_MAX_STEPS, stats["out_of_steps"]). */
+    int out_of_steps[UB_LANES];
 } ub_trace_result;
 
 /* Distance along each ray to the sea plane z = height (world), or +inf. */
@@ -182,8 +206,9 @@ static void trace(const ub_scene *sc, const ub_de_params *dps, const ub_packet_r
                   unsigned flags, const float *tan_angle, ub_trace_result *out, ub_counters *cnt)
 {
     const int sea = (flags & UB_TRACE_SEA) != 0, any_hit = (flags & UB_TRACE_ANY_HIT) != 0;
-    float best_t[UB_LANES];
+    float best_t[UB_LANES], gave_up_t[UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
+        gave_up_t[l] = INFINITY;
         out->object[l] = UB_HIT_NONE;
         out->iters[l] = out->dist[l] = 0.0f;
         out->penumbra[l] = 1.0f;
@@ -211,11 +236,14 @@ static void trace(const ub_scene *sc, const ub_de_params *dps, const ub_packet_r
             continue;
         ub_march_result res;
         march(sc, o, &dps[k], &orays, tb, active, !any_hit, &res, &steps, tan_angle ? &pen : NULL, tanv, cnt);
-        int hits = m_bits(res.hit) & active;
-        if (!hits)
-            continue;
+        int hits = m_bits(res.hit) & active, gave_up = m_bits(res.out_of_steps) & active;
         float s[UB_LANES], it[UB_LANES], di[UB_LANES];
         v_store(s, res.s);
+        for (int l = 0; l < UB_LANES; l++)
+            if ((gave_up >> l) & 1)
+                gave_up_t[l] = fminf(gave_up_t[l], orays.t_enter[l] + s[l]);
+        if (!hits)
+            continue;
         v_store(it, res.iters);
         v_store(di, res.dist);
         for (int l = 0; l < UB_LANES; l++) {
@@ -236,6 +264,8 @@ static void trace(const ub_scene *sc, const ub_de_params *dps, const ub_packet_r
     float pb[UB_LANES];
     v_store(pb, pen);
     for (int l = 0; l < UB_LANES; l++) {
+        /* A hit nearer than where a march gave up shows what it would have shown anyway. */
+        out->out_of_steps[l] = out->object[l] == UB_HIT_NONE ? gave_up_t[l] < INFINITY : gave_up_t[l] < best_t[l];
         out->t[l] = best_t[l];
         float p = pb[l] < 0.0f ? 0.0f : (pb[l] > 1.0f ? 1.0f : pb[l]);
         out->penumbra[l] = out->object[l] == UB_HIT_NONE ? p : 0.0f;

@@ -773,10 +773,12 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
         PyObject *ratio = footprint_ratio(&cam, objs, count, &film);
         if (!ratio)
             goto done;
-        result = Py_BuildValue("{s:K,s:K,s:K,s:d,s:i,s:s,s:O,s:N}", "rays", (unsigned long long)stats.counters.rays,
-                               "steps", (unsigned long long)stats.counters.steps, "iterations",
-                               (unsigned long long)stats.counters.iterations, "seconds", stats.seconds, "threads",
-                               stats.threads, "simd", stats.isa, "cancelled",
+        result = Py_BuildValue("{s:K,s:K,s:K,s:K,s:d,s:i,s:s,s:O,s:N}", "rays",
+                               (unsigned long long)stats.counters.rays, "steps",
+                               (unsigned long long)stats.counters.steps, "iterations",
+                               (unsigned long long)stats.counters.iterations, "out_of_steps",
+                               (unsigned long long)stats.counters.out_of_steps, "seconds", stats.seconds,
+                               "threads", stats.threads, "simd", stats.isa, "cancelled",
                                stats.cancelled ? Py_True : Py_False, "footprint_ratio", ratio);
     }
 done:
@@ -1153,7 +1155,9 @@ static PyMethodDef methods[] = {
      "After a cancel (stats['cancelled']) the passes are partial: with several samples, undivided sums of "
      "the samples done. stats['footprint_ratio']: a pixel's footprint at the nearest hit of the depth pass "
      "over the largest world bounding radius (None without depth or hits); below PRECISION_LIMIT float32 no "
-     "longer resolves the surface. Keywords and object, shading and light keys: see PARAMETERS"},
+     "longer resolves the surface. stats['out_of_steps']: camera rays of the window (each sample) that ran out "
+     "of max_steps before they hit or left a fractal (the 'max_steps' pass marks them). Keywords and object, "
+     "shading and light keys: see PARAMETERS"},
     {"normals", (PyCFunction)(void (*)(void))py_normals, METH_VARARGS | METH_KEYWORDS,
      "normals(object, points, t, normals, *, simd='auto'): object-space unit normals at object-space points "
      "by the object's normal_method (zbuffer: the distance gradient), gradient step alpha * t**delta"},

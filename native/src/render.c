@@ -227,6 +227,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         stats->counters.rays += per_thread[i].rays;
         stats->counters.steps += per_thread[i].steps;
         stats->counters.iterations += per_thread[i].iterations;
+        stats->counters.out_of_steps += per_thread[i].out_of_steps;
     }
     stats->threads = ran;
     stats->isa = use_avx2 ? "avx2" : "portable";

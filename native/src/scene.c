@@ -10,10 +10,10 @@
 
 const char *const ub_pass_names[UB_PASS_COUNT] = {
     "combined", "alpha", "depth", "normal", "position", "iterations", "steps", "distance",
-    "ao", "shadow", "diffuse", "ambient", "reflection", "orbit_trap", "glow",
+    "ao", "shadow", "diffuse", "ambient", "reflection", "orbit_trap", "glow", "max_steps",
     "denoising_albedo", "denoising_normal",
 };
-const int ub_pass_channels[UB_PASS_COUNT] = {4, 1, 1, 3, 3, 1, 1, 1, 1, 1, 3, 3, 3, 1, 3, 3, 3};
+const int ub_pass_channels[UB_PASS_COUNT] = {4, 1, 1, 3, 3, 1, 1, 1, 1, 1, 3, 3, 3, 1, 3, 1, 3, 3};
 
 /* Radical inverse in base b of i: the Halton sequence's coordinate. */
 static double radical_inverse(int i, int b)

@@ -242,6 +242,7 @@ typedef enum {
     UB_PASS_REFLECTION,   /* reflected light */
     UB_PASS_ORBIT_TRAP,   /* orbit trap value at the hit: min |z_k| over the orbit */
     UB_PASS_GLOW,         /* glow from the marching steps */
+    UB_PASS_MAX_STEPS,    /* 1 where the camera ray ran out of max_steps before it hit or left */
     UB_PASS_DENOISING_ALBEDO, /* surface colour of the first hit, averaged (OpenImageDenoise's albedo) */
     UB_PASS_DENOISING_NORMAL, /* first hit's normal in Cycles' camera space, averaged (OIDN's normal) */
     UB_PASS_COUNT
@@ -262,6 +263,9 @@ typedef struct {
 
 typedef struct {
     uint64_t rays, steps, iterations;
+    /* Camera rays of the film (each sample) that ran out of max_steps before they hit or left
+     * the fractal: drawn as whatever lies behind, the background mostly (issue 18). */
+    uint64_t out_of_steps;
 } ub_counters;
 
 /* What the camera ray of one pixel (one sample) hit: written by the primary phase, read by the
@@ -271,7 +275,10 @@ typedef struct {
 typedef struct {
     float t;           /* world distance along the ray */
     float iterations, distance, steps;
-    int object;        /* index, UB_HIT_NONE or UB_HIT_SEA */
+    /* 16 bits each: the flag fits in the 20 bytes a pixel's hit takes (addon/engine.py's memory
+     * estimate counts them); UB_MAX_OBJECTS is far below 2^15. */
+    int16_t object;    /* index, UB_HIT_NONE or UB_HIT_SEA */
+    int16_t out_of_steps; /* 1: ran out of max_steps in front of what it shows (UB_PASS_MAX_STEPS) */
 } ub_hit;
 
 typedef struct {

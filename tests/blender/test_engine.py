@@ -83,3 +83,53 @@ def test_denoise_node_fed_by_our_passes_lowers_the_error(run_bpy):
     assert {"Denoising Albedo.R", "Denoising Normal.X", "Denoised.R", "Combined.R"} <= set(r["layers"]), r
     assert r["denoise_changed"], r
     assert r["denoised"] < r["noisy"], r
+
+
+def float64_out_of_steps(r, max_steps):
+    """The rays of the reported camera whose float64 reference march (reference/qjulia64.py) is still
+    going after max_steps steps: a count independent of the core."""
+    import pathlib
+    import sys
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2]))
+    from reference import qjulia64
+    obj = dict(mu=r["mu"], max_iterations=r["max_iterations"], max_steps=max_steps)
+    return qjulia64.render(r["camera"], obj, 80, 60)["exhausted"]
+
+
+def test_rays_out_of_max_steps_are_counted_marked_and_warned(run_bpy):
+    """Issue 18. F12 (80 x 60) of the default fractal with Max Steps 8: the engine's stats count the
+    camera rays that ran out (LAST_STATS['out_of_steps']), the Max Steps pass in the EXR marks exactly
+    those pixels (1, else 0), both equal the rays whose float64 reference march is still going after 8
+    steps (pixel for pixel), and Blender's report shows the warning (more than MAX_STEPS_SHARE, 0.01 %,
+    of the camera rays). The View Layer's Unbound pass toggle is named Max Steps, and the Render
+    Layers node shows a Max Steps socket only while it is on."""
+    r = run_bpy("engine.rays_out_of_max_steps", args=dict(max_steps=8))
+    import numpy as np
+    marked = np.array(r["marked"])
+    assert set(np.unique(marked)) <= {0.0, 1.0}
+    expected = float64_out_of_steps(r, 8)
+    stats = r["stats"]
+    assert stats["out_of_steps"] == int(marked.sum()) == int(expected.sum()) > 100
+    assert np.array_equal(marked == 1.0, expected)
+    assert stats["camera_rays"] == 80 * 60
+    warnings = [line for line in r["_output"].splitlines() if "ran out of Max Steps" in line]
+    assert warnings == ["Warning: Unbound: %d of 4800 camera rays (%.2g%%) ran out of Max Steps before they hit or "
+                        "left the fractal and show what lies behind it: raise Max Steps or coarsen the threshold "
+                        "(Object Data > Unbound Fractal > Quality); the Max Steps pass shows where"
+                        % (stats["out_of_steps"], 100.0 * stats["out_of_steps"] / 4800)], warnings
+    assert r["toggle_name"] == "Max Steps"
+    assert "Max Steps" in r["sockets_on"] and "Max Steps" not in r["sockets_off"]
+
+
+def test_max_steps_warning_threshold(run_bpy):
+    """At the default Max Steps (2000) no ray of the default view runs out: no warning. With two
+    samples, the count sums both samples' rays and the warning's share is over 2 x 4800 rays."""
+    quiet = run_bpy("engine.rays_out_of_max_steps", args=dict(max_steps=2000))
+    assert quiet["stats"]["out_of_steps"] == 0 and not any(quiet["marked"][y][x] for y in range(60) for x in range(80))
+    assert "ran out of Max Steps" not in quiet["_output"]
+    two = run_bpy("engine.rays_out_of_max_steps", args=dict(max_steps=8, samples=2))
+    assert two["stats"]["camera_rays"] == 2 * 80 * 60
+    count = two["stats"]["out_of_steps"]
+    import numpy as np
+    assert count == round(2 * float(np.sum(two["marked"])))
+    assert "Warning: Unbound: %d of 9600 camera rays" % count in two["_output"]

@@ -1,5 +1,6 @@
 """Same pixels through Blender's real pipeline: SHA-256 over every channel of the multilayer EXR that
-F12 writes (every Unbound pass enabled) for a suite of small scenes built with the add-on, recorded
+F12 writes (every Unbound pass enabled; the hashes over the passes they were recorded with:
+bpy_scripts/golden.py, HASHED_PASSES) for a suite of small scenes built with the add-on, recorded
 before the add-on's refactor and asserted ever since. Every fractal kind made by its operator, the
 scene's shading settings and lights, the object's settings (fixed threshold, slice, analytic
 normals, orbit-trap colour ramp, steps, a non-uniform scale and rotation), a render border with and

@@ -41,3 +41,25 @@ def test_every_core_key_is_reachable_from_the_addon(run_bpy):
         for key, where in keys.items():
             module = where.split()[0].split(".")[0] + ".py"
             assert key in sources[module], (key, module)
+
+
+# Core passes the add-on does not show as a pass: alpha is Combined's A.
+CORE_ONLY_PASSES = {"alpha"}
+
+
+def test_pass_table_matches_the_core(run_bpy):
+    """Every pass of the add-on's table (addon/passes.py) is a core pass with the core's channel count,
+    every core pass but alpha is in the table once, and each optional pass has a view-layer toggle
+    named after the pass (what the Unbound Passes panel draws), or, when passes share it, by the
+    table's SHARED_TOGGLES label (Cycles' Denoising Data)."""
+    r = run_bpy("parameter_table.pass_table_matches_the_core")
+    rows, core = r["rows"], r["core"]
+    natives = [row["native"] for row in rows]
+    assert len(natives) == len(set(natives))
+    assert set(natives) == set(core) - CORE_ONLY_PASSES, set(natives) ^ (set(core) - CORE_ONLY_PASSES)
+    for row in rows:
+        assert row["channels"] == core[row["native"]], row
+        shared = {"use_pass_denoising_data": "Denoising Data"}
+        assert row["toggle"] is None or row["toggle_name"] == shared.get(row["toggle"], row["name"]), row
+    assert {"name": "Max Steps", "native": "max_steps", "channels": 1, "toggle": "use_pass_max_steps",
+            "toggle_name": "Max Steps"} in rows

@@ -22,16 +22,16 @@ def test_memory_preflight_refuses_with_the_figure(run_bpy, how):
         r = run_bpy("reliability.memory_preflight", args={"limit_gb": 3.0})
     message, written = r["big"]
     assert not written, r
-    assert "this render needs about 1288.5 GB of memory (65536 x 65536 pixels at 300 bytes each, 16 passes)" \
+    assert "this render needs about 1327.1 GB of memory (65536 x 65536 pixels at 309 bytes each, 17 passes)" \
         in message, message
     assert "turn off passes (Normal, Position, Diffuse" in message, message
     assert r["small"] == ["ok", True], r
-    # All passes, 35 channels. One sample (rendered in bands): Blender's result and its copy for
-    # the compositor and writer (two float32 copies), and an eighth of the add-on's buffers and the
-    # core's 20-byte hit record: 300 bytes per pixel, 1920 x 1080 about 0.62 GB. Several samples:
-    # three copies and the whole hit buffer, 440 bytes.
-    assert r["per_pixel"] == 35 * 4 * 2 + (35 * 4 + 20) // 8 and r["needed"] == 300 * 1920 * 1080
-    assert r["per_pixel_samples"] == 35 * 4 * 3 + 20
+    # All passes, 36 channels. One sample (rendered in bands): Blender's result and its copy for
+    # the compositor and writer (two float32 copies), and an eighth (rounded up) of the add-on's
+    # buffers and the core's 20-byte hit record: 309 bytes per pixel, 1920 x 1080 about 0.64 GB.
+    # Several samples: three copies and the whole hit buffer, 452 bytes.
+    assert r["per_pixel"] == 36 * 4 * 2 + -(-(36 * 4 + 20) // 8) and r["needed"] == 309 * 1920 * 1080
+    assert r["per_pixel_samples"] == 36 * 4 * 3 + 20
     assert "Traceback" not in r["_output"]
 
 

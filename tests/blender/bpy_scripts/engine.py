@@ -210,3 +210,40 @@ def denoise_lowers_the_error(S, mod, samples=1, reference_samples=256):
     S.report(fed=fed, layers=images["noisy"]["layers"], noisy=rmse(images["noisy"]["image"]),
              denoised=rmse(images["noisy"]["denoised"]), seconds=[v["seconds"] for v in images.values()],
              denoise_changed=bool(np.any(images["noisy"]["image"] != images["noisy"]["denoised"])))
+
+
+def rays_out_of_max_steps(S, mod, max_steps, samples=1):
+    """F12 of the default fractal with Max Steps `max_steps` and the Max Steps pass on: the engine's
+    stats, the pass from the EXR (rows bottom-up, as the core's), the Render Layers node's sockets with
+    the pass off and on, and the core's camera dict (for the float64 reference)."""
+    scene = S.empty_scene(80, 60)
+    S.add_camera(scene)
+    ob = S.add_fractal(max_steps=max_steps)
+    scene.unbound.samples = samples
+    vl = scene.view_layers[0]
+    tree = mod.utils.compositor_tree(scene, create=True)
+    sockets = {}
+    for on in (False, True):
+        vl.unbound.use_pass_max_steps = on
+        node = tree.nodes.new("CompositorNodeRLayers")
+        sockets[on] = [s.name for s in node.outputs if s.enabled]
+        tree.nodes.remove(node)
+    exr = S.render_to_exr(scene)
+    from bl_ext.user_default.unbound import export
+    dg = bpy.context.evaluated_depsgraph_get()
+
+    class Cam:  # the camera description needs only these engine methods
+        camera_override = None
+
+        def camera_model_matrix(self, ob, use_spherical_stereo=False):
+            return ob.matrix_world
+
+        def camera_shift_x(self, ob, use_spherical_stereo=False):
+            return ob.data.shift_x
+
+    cam = export.camera_description(Cam(), dg, 80, 60)
+    S.report(stats=mod.engine.LAST_STATS, marked=exr["ViewLayer.Max Steps.X"][::-1].tolist(),
+             sockets_off=sockets[False], sockets_on=sockets[True], toggle_name=vl.unbound.bl_rna.properties[
+                 "use_pass_max_steps"].name,
+             camera=dict(matrix=[list(r) for r in cam["matrix"]], projection=[list(r) for r in cam["projection"]]),
+             mu=list(ob.unbound.mu), max_iterations=ob.unbound.max_iterations)

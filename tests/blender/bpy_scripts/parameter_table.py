@@ -121,3 +121,14 @@ def every_core_key_is_reachable(S, mod):
     render_keys = set(export.render_options(scene))
     S.report(object=sorted(object_keys), shading=sorted(shading), light=sorted(light_keys), camera=sorted(camera),
              render=sorted(render_keys), table={s: sorted(uc.PARAMETERS[s]) for s in uc.PARAMETERS})
+
+
+def pass_table_matches_the_core(S, mod):
+    """The add-on's pass table (passes.PASSES) against the core's pass list, and the view layer's
+    toggles the table makes."""
+    import unbound_core as uc
+    vl = bpy.context.scene.view_layers[0]
+    rows = [dict(name=p.name, native=p.native, channels=p.channels, toggle=p.toggle,
+                 toggle_name=vl.unbound.bl_rna.properties[p.toggle].name if p.toggle else None)
+            for p in mod.passes.PASSES]
+    S.report(rows=rows, core=dict(uc.PASS_CHANNELS))
