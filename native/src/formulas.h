@@ -124,7 +124,7 @@ static inline vf v_exp2(vf x)
  * estimate is the analytic running derivative's, 0.5 log(r) r / dr with dr <- n r^(n-1) dr
  * (+ 1 in Mandelbrot mode): the Hubbard-Douady estimate the triplex map inherits without its
  * proof (the map is not conformal), so the kind is empirical. The potential is log r / n^k. */
-static inline void de_mandelbulb(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+static inline void de_mandelbulb(const ub_de_params *p, vm lanes, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
                                  ub_de_extra *ex)
 {
     const ub_object *o = p->obj;
@@ -139,7 +139,7 @@ static inline void de_mandelbulb(const ub_de_params *p, vf x, vf y, vf z, const 
     vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
     vf dr = one, cnt = zero, trap = r2, gscale = one;
     const vf gstep = v_set1((float)(1.0 / o->power));
-    vm active = m_from_bits(0xff);
+    vm active = lanes;
     for (int it = 0; it < p->max_iterations; it++) {
         vm nonzero = v_gt(r2, zero);
         vf r = v_sqrt(r2);
@@ -183,7 +183,7 @@ static inline void de_mandelbulb(const ub_de_params *p, vf x, vf y, vf z, const 
  * mode: c fixed. The estimate is the running scale's, |z_n| / dr_n, dr <- |s| k dr (+ 1): the
  * folds are isometries or similarities piece by piece, but no proof bounds the distance by it,
  * so the kind is empirical. No potential. */
-static inline void de_mandelbox(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+static inline void de_mandelbox(const ub_de_params *p, vm lanes, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
                                 ub_de_extra *ex)
 {
     const ub_object *o = p->obj;
@@ -200,7 +200,7 @@ static inline void de_mandelbox(const ub_de_params *p, vf x, vf y, vf z, const i
     const vf dr_add = julia ? zero : one;
     vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
     vf dr = one, cnt = zero, trap = r2, gscale = one;
-    vm active = m_from_bits(0xff);
+    vm active = lanes;
     for (int it = 0; it < p->max_iterations; it++) {
         vf fx = v_fms(two, v_min(v_max(x, nL), L), x);
         vf fy = v_fms(two, v_min(v_max(y, nL), L), y);
@@ -319,7 +319,7 @@ static inline vf kifs_shape_distance(const ub_object *o, vf x, vf y, vf z)
  * box, the Sierpinski tetrahedron in a tetrahedron, the octahedral flake in an octahedron),
  * A_n holds the limit attractor as well, so the bound is one for the attractor too. The
  * escape count is the steps taken, the orbit trap min |z_k|; no potential. */
-static inline void de_kifs(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+static inline void de_kifs(const ub_de_params *p, vm lanes, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
                            ub_de_extra *ex)
 {
     const ub_object *o = p->obj;
@@ -328,7 +328,7 @@ static inline void de_kifs(const ub_de_params *p, vf x, vf y, vf z, const int wa
     const vf zero = v_set1(0.0f), one = v_set1(1.0f);
     vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
     vf dr = one, cnt = zero, trap = r2, gscale = one;
-    vm active = m_from_bits(0xff);
+    vm active = lanes;
     for (int it = 0; it < p->max_iterations; it++) {
         vf nx = x, ny = y, nz = z;
         kifs_step(&k, &nx, &ny, &nz);
@@ -364,7 +364,7 @@ static inline void de_kifs(const ub_de_params *p, vf x, vf y, vf z, const int wa
  * point (Mandelbrot form) or julia_c. The estimate is the Mandelbulb's 0.5 log r r / dr when a
  * Mandelbulb step is among them, else the folds' r / dr. Nothing proves either for a mixture:
  * the kind is empirical and marched with the empirical kinds' guards. */
-static inline void de_hybrid(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+static inline void de_hybrid(const ub_de_params *p, vm lanes, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
                              ub_de_extra *ex)
 {
     const ub_object *o = p->obj;
@@ -386,7 +386,7 @@ static inline void de_hybrid(const ub_de_params *p, vf x, vf y, vf z, const int 
     kifs_consts(o, &k);
     vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
     vf dr = one, cnt = zero, trap = r2, gscale = one;
-    vm active = m_from_bits(0xff);
+    vm active = lanes;
     int entry = 0, done = 0;
     for (int it = 0; it < p->max_iterations; it++) {
         vf nx, ny, nz, ndr;
