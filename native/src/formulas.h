@@ -287,12 +287,48 @@ static inline void de_mandelbulb(const ub_de_params *p, vm lanes, vf x, vf y, vf
         ex->normal[0] = ex->normal[1] = ex->normal[2] = zero;
 }
 
-/* The Mandelbox: per step the box fold (each coordinate beyond +-L reflected back: 2 clamp(x)
- * - x), the sphere fold (z scaled by fixed^2 / max(r^2, min^2) inside the fixed radius, an
- * inversion between the radii), then z <- s z + c. Mandelbrot mode: z0 = c = the point; Julia
- * mode: c fixed. The estimate is the running scale's, |z_n| / dr_n, dr <- |s| k dr (+ 1): the
- * folds are isometries or similarities piece by piece, but no proof bounds the distance by it,
- * so the kind is empirical. No potential. */
+/* The Mandelbox's constants in kernel precision. */
+typedef struct {
+    vf L, nL;       /* box fold limits +-L */
+    vf min2, fix2;  /* squared sphere fold radii */
+    vf s, abs_s;    /* scale */
+} ub_box_consts;
+
+static inline void box_consts(const ub_object *o, ub_box_consts *b)
+{
+    b->L = v_set1((float)o->box_fold);
+    b->nL = v_set1((float)-o->box_fold);
+    b->min2 = v_set1((float)(o->min_radius * o->min_radius));
+    b->fix2 = v_set1((float)(o->fixed_radius * o->fixed_radius));
+    b->s = v_set1((float)o->box_scale);
+    b->abs_s = v_set1((float)fabs(o->box_scale));
+}
+
+/* One Mandelbox step: the box fold (each coordinate beyond +-L reflected back: 2 clamp(x) - x),
+ * the sphere fold k = fixed^2 / clamp(r^2, min^2, fixed^2) (1 outside the fixed radius, the
+ * inversion between the radii, the constant fixed^2 / min^2 inside), then z <- s k fold(z) + c,
+ * and the running scale's factor |s| k. Written as k (s fold(z)) + c, so that the scaling runs
+ * beside the fold's root-free division instead of after it: the iteration is a chain of
+ * dependent operations, and its length is the Mandelbox's speed. */
+static inline void box_step(const ub_box_consts *b, vf x, vf y, vf z, vf cx, vf cy, vf cz, vf *nx, vf *ny, vf *nz,
+                            vf *scale)
+{
+    const vf two = v_set1(2.0f);
+    vf fx = v_fms(two, v_min(v_max(x, b->nL), b->L), x);
+    vf fy = v_fms(two, v_min(v_max(y, b->nL), b->L), y);
+    vf fz = v_fms(two, v_min(v_max(z, b->nL), b->L), z);
+    vf f2 = v_fma(fx, fx, v_fma(fy, fy, v_mul(fz, fz)));
+    vf k = v_div(b->fix2, v_min(v_max(f2, b->min2), b->fix2));
+    *nx = v_fma(k, v_mul(b->s, fx), cx);
+    *ny = v_fma(k, v_mul(b->s, fy), cy);
+    *nz = v_fma(k, v_mul(b->s, fz), cz);
+    *scale = v_mul(b->abs_s, k);
+}
+
+/* The Mandelbox (box_step): Mandelbrot mode: z0 = c = the point; Julia mode: c fixed. The
+ * estimate is the running scale's, |z_n| / dr_n, dr <- |s| k dr (+ 1): the folds are isometries
+ * or similarities piece by piece, but no proof bounds the distance by it, so the kind is
+ * empirical. No potential. */
 static inline void de_mandelbox(const ub_de_params *p, vm lanes, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
                                 ub_de_extra *ex)
 {
@@ -301,30 +337,20 @@ static inline void de_mandelbox(const ub_de_params *p, vm lanes, vf x, vf y, vf 
     const vf cx = julia ? v_set1((float)o->julia_c[0]) : x;
     const vf cy = julia ? v_set1((float)o->julia_c[1]) : y;
     const vf cz = julia ? v_set1((float)o->julia_c[2]) : z;
-    const vf zero = v_set1(0.0f), one = v_set1(1.0f), two = v_set1(2.0f);
-    const vf L = v_set1((float)o->box_fold), nL = v_set1((float)-o->box_fold);
-    const vf min2 = v_set1((float)(o->min_radius * o->min_radius));
-    const vf fix2 = v_set1((float)(o->fixed_radius * o->fixed_radius));
-    const vf inner = v_set1((float)(o->fixed_radius * o->fixed_radius / (o->min_radius * o->min_radius)));
-    const vf s = v_set1((float)o->box_scale), as = v_set1((float)fabs(o->box_scale));
+    const vf zero = v_set1(0.0f), one = v_set1(1.0f);
     const vf dr_add = julia ? zero : one;
+    ub_box_consts b;
+    box_consts(o, &b);
     vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
     vf dr = one, cnt = zero, trap = r2, gscale = one;
     vm active = lanes;
     for (int it = 0; it < p->max_iterations; it++) {
-        vf fx = v_fms(two, v_min(v_max(x, nL), L), x);
-        vf fy = v_fms(two, v_min(v_max(y, nL), L), y);
-        vf fz = v_fms(two, v_min(v_max(z, nL), L), z);
-        vf f2 = v_fma(fx, fx, v_fma(fy, fy, v_mul(fz, fz)));
-        vf k = v_select(v_lt(f2, min2), inner,
-                        v_select(v_lt(f2, fix2), v_div(fix2, v_select(v_lt(f2, min2), one, f2)), one));
-        vf sk = v_mul(s, k);
-        vf nx = v_fma(sk, fx, cx), ny = v_fma(sk, fy, cy), nz = v_fma(sk, fz, cz);
-        dr = v_select(active, v_fma(v_mul(as, k), dr, dr_add), dr);
-        vf nr2 = v_fma(nx, nx, v_fma(ny, ny, v_mul(nz, nz)));
-        x = v_select(active, nx, x);
-        y = v_select(active, ny, y);
-        z = v_select(active, nz, z);
+        vf scale;
+        box_step(&b, x, y, z, cx, cy, cz, &x, &y, &z, &scale);
+        /* Stopped lanes iterate on unused (r2 and dr, all the result depends on, stay frozen):
+         * a select per coordinate would lengthen the chain. */
+        dr = v_select(active, v_fma(scale, dr, dr_add), dr);
+        vf nr2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
         active = orbit_step(p, want, active, nr2, &r2, &cnt, &trap, &gscale, one);
         if (!m_bits(active))
             break;
@@ -482,16 +508,12 @@ static inline void de_hybrid(const ub_de_params *p, vm lanes, vf x, vf y, vf z, 
     const vf cx = julia ? v_set1((float)o->julia_c[0]) : x;
     const vf cy = julia ? v_set1((float)o->julia_c[1]) : y;
     const vf cz = julia ? v_set1((float)o->julia_c[2]) : z;
-    const vf zero = v_set1(0.0f), one = v_set1(1.0f), two = v_set1(2.0f);
+    const vf zero = v_set1(0.0f), one = v_set1(1.0f);
     const vf dr_add = julia ? zero : one;
     ub_bulb_consts bc;
     bulb_consts(o, &bc);
-    /* Mandelbox */
-    const vf L = v_set1((float)o->box_fold), nL = v_set1((float)-o->box_fold);
-    const vf min2 = v_set1((float)(o->min_radius * o->min_radius));
-    const vf fix2 = v_set1((float)(o->fixed_radius * o->fixed_radius));
-    const vf inner = v_set1((float)(o->fixed_radius * o->fixed_radius / (o->min_radius * o->min_radius)));
-    const vf bs = v_set1((float)o->box_scale), abs_bs = v_set1((float)fabs(o->box_scale));
+    ub_box_consts b;
+    box_consts(o, &b);
     ub_kifs_consts k;
     kifs_consts(o, &k);
     vf r2 = v_fma(x, x, v_fma(y, y, v_mul(z, z)));
@@ -508,17 +530,9 @@ static inline void de_hybrid(const ub_de_params *p, vm lanes, vf x, vf y, vf z, 
             break;
         }
         case UB_HYBRID_MANDELBOX: {
-            vf fx = v_fms(two, v_min(v_max(x, nL), L), x);
-            vf fy = v_fms(two, v_min(v_max(y, nL), L), y);
-            vf fz = v_fms(two, v_min(v_max(z, nL), L), z);
-            vf f2 = v_fma(fx, fx, v_fma(fy, fy, v_mul(fz, fz)));
-            vf kk = v_select(v_lt(f2, min2), inner,
-                             v_select(v_lt(f2, fix2), v_div(fix2, v_select(v_lt(f2, min2), one, f2)), one));
-            vf sk = v_mul(bs, kk);
-            nx = v_fma(sk, fx, cx);
-            ny = v_fma(sk, fy, cy);
-            nz = v_fma(sk, fz, cz);
-            ndr = v_fma(v_mul(abs_bs, kk), dr, dr_add);
+            vf scale;
+            box_step(&b, x, y, z, cx, cy, cz, &nx, &ny, &nz, &scale);
+            ndr = v_fma(scale, dr, dr_add);
             break;
         }
         default:
