@@ -87,7 +87,7 @@ static inline vm orbit_step(const ub_de_params *p, const int want, vm active, vf
  * of section 4.1.2 and the Jacobian of f^n along the three slice axes. d(z q)/dx = z dq + dq z
  * for f = z^2 (plus dmu/dx for Mandelbrot), and for z = (a, v), h = (p, w):
  * zh + hz = (2(ap - v.w), 2(aw + pv)) (the cross products cancel). */
-static inline void de_quaternion(const ub_de_params *p, const int mandel, vf a, vf b, vf c, vf d,
+static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mandel, vf a, vf b, vf c, vf d,
                                         const int want, vf *dist, vf *iters, ub_de_extra *x)
 {
     const ub_object *o = p->obj;
@@ -103,7 +103,7 @@ static inline void de_quaternion(const ub_de_params *p, const int mandel, vf a, 
         for (int k = 0; k < 3; k++)
             for (int c4 = 0; c4 < 4; c4++)
                 j[k][c4] = v_set1((float)o->slice_basis[c4][k]);
-    vm active = m_from_bits(0xff);
+    vm active = lanes;
     const vf four = v_set1(4.0f), two = v_set1(2.0f), half = v_set1(0.5f);
     for (int it = 0; it < p->max_iterations; it++) {
         if (want & UB_WANT_JACOBIAN) {
@@ -188,7 +188,7 @@ static inline void de_quaternion(const ub_de_params *p, const int mandel, vf a, 
  * with |grad|^2 = |dz_n/dz|^2 + |dz_n/dc|^2 |dc/dw|^2, the second term the Mandelbrot
  * derivative (|dz/dc| <- 2|z||dz/dc| + 1) times the path's speed. A constant path leaves the
  * exact planar estimate: a straight extrusion. Cut to the slab |w| <= height / 2. */
-static inline void de_stack(const ub_de_params *p, vf x, vf y, vf w, const int want, vf *dist, vf *iters,
+static inline void de_stack(const ub_de_params *p, vm lanes, vf x, vf y, vf w, const int want, vf *dist, vf *iters,
                                    ub_de_extra *ex)
 {
     const ub_object *o = p->obj;
@@ -214,7 +214,7 @@ static inline void de_stack(const ub_de_params *p, vf x, vf y, vf w, const int w
     const vf two = v_set1(2.0f), four = v_set1(4.0f), half = v_set1(0.5f), one = v_set1(1.0f);
     vf a = x, b = y;
     vf r2 = v_fma(a, a, v_mul(b, b)), dr2 = one, dm = v_set1(0.0f), n = v_set1(0.0f), trap = r2, gscale = one;
-    vm active = m_from_bits(0xff);
+    vm active = lanes;
     for (int it = 0; it < p->max_iterations; it++) {
         vf na = v_fms(a, a, v_fms(b, b, c_re));
         vf nb = v_fma(v_add(a, a), b, c_im);
@@ -247,7 +247,7 @@ static inline void de_stack(const ub_de_params *p, vf x, vf y, vf w, const int w
  *   P <- f'(z) P - 6 a z,  Q <- f'(z) Q + 1,  f'(z) = 3z^2 - 3a^2,  P0 = sign, Q0 = 0.
  * Empirical estimate (section 5.2 knows none): |z_n| log|z_n| / (2 |grad|), the gradient over
  * the slice's three axes (Frobenius norm: never below the true gradient's length). */
-static inline void cubic_orbit(const ub_de_params *p, float sign, vf ar, vf ai, vf br, vf bi,
+static inline void cubic_orbit(const ub_de_params *p, vm lanes, float sign, vf ar, vf ai, vf br, vf bi,
                                       const int want, vf *dist, vf *iters, vf *trap_out, vf *potential)
 {
     const ub_object *o = p->obj;
@@ -259,7 +259,7 @@ static inline void cubic_orbit(const ub_de_params *p, float sign, vf ar, vf ai, 
     vf a2r = v_mul(three, v_fms(ar, ar, v_mul(ai, ai))), a2i = v_mul(three, v_mul(v_add(ar, ar), ai));
     vf a6r = v_mul(v_set1(6.0f), ar), a6i = v_mul(v_set1(6.0f), ai);
     vf r2 = v_fma(zr, zr, v_mul(zi, zi)), n = zero, trap = r2, gscale = v_set1(1.0f);
-    vm active = m_from_bits(0xff);
+    vm active = lanes;
     for (int it = 0; it < p->max_iterations; it++) {
         vf z2r = v_fms(zr, zr, v_mul(zi, zi)), z2i = v_mul(v_add(zr, zr), zi);
         vf fpr = v_fms(three, z2r, a2r), fpi = v_fms(three, z2i, a2i); /* f'(z) */
@@ -301,16 +301,16 @@ static inline void cubic_orbit(const ub_de_params *p, float sign, vf ar, vf ai, 
 
 /* The cubic connectedness locus (section 5.2) in the 4-D (a, b) space: C+, C-, their union
  * (min of the estimates) or their intersection (max), clipped to the ball |(a, b)| <= extent. */
-static inline void de_cubic(const ub_de_params *p, vf ar, vf ai, vf br, vf bi, const int want, vf *dist,
+static inline void de_cubic(const ub_de_params *p, vm lanes, vf ar, vf ai, vf br, vf bi, const int want, vf *dist,
                                    vf *iters, ub_de_extra *x)
 {
     const ub_object *o = p->obj;
     vf d, n, trap, pot;
     int comp = o->cubic_component;
-    cubic_orbit(p, comp == UB_CUBIC_MINUS ? -1.0f : 1.0f, ar, ai, br, bi, want, &d, &n, &trap, &pot);
+    cubic_orbit(p, lanes, comp == UB_CUBIC_MINUS ? -1.0f : 1.0f, ar, ai, br, bi, want, &d, &n, &trap, &pot);
     if (comp == UB_CUBIC_UNION || comp == UB_CUBIC_BOTH) {
         vf d2, n2, trap2, pot2;
-        cubic_orbit(p, -1.0f, ar, ai, br, bi, want, &d2, &n2, &trap2, &pot2);
+        cubic_orbit(p, lanes, -1.0f, ar, ai, br, bi, want, &d2, &n2, &trap2, &pot2);
         vm second = comp == UB_CUBIC_UNION ? v_lt(d2, d) : v_gt(d2, d);
         d = v_select(second, d2, d);
         n = v_select(second, n2, n);
@@ -331,14 +331,17 @@ static inline void de_cubic(const ub_de_params *p, vf ar, vf ai, vf br, vf bi, c
 /* 3-D IFS (section 5.3): the bounding-ball hierarchy of ifs.c, lane by lane in double precision.
  * The bound is signed (negative inside a leaf ball), so gradients give the leaves' normals. The
  * escape count is the depth that settled the bound, the orbit trap the leaf's address. */
-static inline void de_ifs(const ub_de_params *p, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+static inline void de_ifs(const ub_de_params *p, vm lanes, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
                                  ub_de_extra *ex)
 {
-    float xs[UB_LANES], ys[UB_LANES], zs[UB_LANES], ds[UB_LANES], ns[UB_LANES], as[UB_LANES];
+    float xs[UB_LANES], ys[UB_LANES], zs[UB_LANES], ds[UB_LANES] = {0}, ns[UB_LANES] = {0}, as[UB_LANES] = {0};
     v_store(xs, x);
     v_store(ys, y);
     v_store(zs, z);
+    const int wanted = m_bits(lanes);
     for (int l = 0; l < UB_LANES; l++) {
+        if (!((wanted >> l) & 1))
+            continue;
         double pt[3] = {xs[l], ys[l], zs[l]}, address;
         int depth;
         ds[l] = (float)ub_ifs_distance(p->obj, pt, &address, &depth, p->cancel);
@@ -357,37 +360,39 @@ static inline void de_ifs(const ub_de_params *p, vf x, vf y, vf z, const int wan
 
 #include "formulas.h"
 
-/* The distance estimate of the object's kind, with the extras `want` asks for. */
-static inline void de_ext(const ub_de_params *p, vf a, vf b, vf c, vf d, const int want, vf *dist,
+/* The distance estimate of the object's kind, with the extras `want` asks for, in the lanes
+ * `lanes`; the other lanes' outputs are unspecified (but never trap), and they cost nothing once
+ * the wanted lanes are done: a packet whose rays have mostly hit iterates only for the rest. */
+static inline void de_ext(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, const int want, vf *dist,
                                  vf *iters, ub_de_extra *x)
 {
     switch (p->obj->kind) {
     case UB_KIND_QUATERNION_MANDELBROT:
-        de_quaternion(p, 1, a, b, c, d, want, dist, iters, x);
+        de_quaternion(p, lanes, 1, a, b, c, d, want, dist, iters, x);
         break;
     case UB_KIND_JULIA_STACK:
-        de_stack(p, a, b, c, want, dist, iters, x);
+        de_stack(p, lanes, a, b, c, want, dist, iters, x);
         break;
     case UB_KIND_CUBIC_LOCUS:
-        de_cubic(p, a, b, c, d, want, dist, iters, x);
+        de_cubic(p, lanes, a, b, c, d, want, dist, iters, x);
         break;
     case UB_KIND_IFS:
-        de_ifs(p, a, b, c, want, dist, iters, x);
+        de_ifs(p, lanes, a, b, c, want, dist, iters, x);
         break;
     case UB_KIND_MANDELBULB:
-        de_mandelbulb(p, a, b, c, want, dist, iters, x);
+        de_mandelbulb(p, lanes, a, b, c, want, dist, iters, x);
         break;
     case UB_KIND_MANDELBOX:
-        de_mandelbox(p, a, b, c, want, dist, iters, x);
+        de_mandelbox(p, lanes, a, b, c, want, dist, iters, x);
         break;
     case UB_KIND_KIFS:
-        de_kifs(p, a, b, c, want, dist, iters, x);
+        de_kifs(p, lanes, a, b, c, want, dist, iters, x);
         break;
     case UB_KIND_HYBRID:
-        de_hybrid(p, a, b, c, want, dist, iters, x);
+        de_hybrid(p, lanes, a, b, c, want, dist, iters, x);
         break;
     default:
-        de_quaternion(p, 0, a, b, c, d, want, dist, iters, x);
+        de_quaternion(p, lanes, 0, a, b, c, d, want, dist, iters, x);
         break;
     }
 }
@@ -399,12 +404,12 @@ static inline void de_ext(const ub_de_params *p, vf a, vf b, vf c, vf d, const i
  * quaternions); we carry its square, 4 |z|^2 |f'|^2, to avoid a square root per iteration.
  * Points that never escape are in K_mu as far as we can tell: their estimate is 0 (a hit).
  * Writes the estimate (object units) and the escape count. */
-static inline void de(const ub_de_params *p, vf a, vf b, vf c, vf d, vf *dist, vf *iters)
+static inline void de(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, vf *dist, vf *iters)
 {
     /* want = 0: no extras (trap, derivatives) are gathered; GCC keeps de_ext out of line, and the
      * Julia benchmark runs as fast as with the earlier inlined loop (0.108 s, 640x512, 1 thread). */
     ub_de_extra unused;
-    de_ext(p, a, b, c, d, 0, dist, iters, &unused);
+    de_ext(p, lanes, a, b, c, d, 0, dist, iters, &unused);
 }
 
 /* Object-space point -> quaternion on the object's slice, in double then rounded. */
@@ -440,16 +445,16 @@ static inline void quaternion_lanes(const ub_object *o, const double p[3][UB_LAN
         q[c] = v_load(qs[c]);
 }
 
-/* Object-space normal at quaternion points q (lanes in `lanes`), by the object's method:
+/* Object-space normal at quaternion points q of the lanes `lanes` (the others' are unspecified), by the object's method:
  * eq. 15's central differences of d() or G() with the step h (object units), or the analytic
  * gradient. A degenerate gradient (all samples inside the set, or G flat) falls back to the
  * analytic normal, and that to zero (the caller then faces the normal to the viewer). */
-static void object_normal(const ub_object *o, const ub_de_params *dp, const vf q[4], vf h, vf g[3])
+static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, const vf q[4], vf h, vf g[3])
 {
     int method = (int)o->normal_method;
     vf dist, it;
     ub_de_extra x;
-    vm good = m_false(); /* lanes with a usable gradient */
+    vm good = m_andnot(lanes, m_from_bits(0xff)); /* lanes with a usable gradient, or none wanted */
     /* Only the quaternion kinds carry a Jacobian, and the IFS has no potential: the others use
      * the distance gradient. */
     int quaternion = o->kind == UB_KIND_QUATERNION_JULIA || o->kind == UB_KIND_QUATERNION_MANDELBROT;
@@ -469,15 +474,15 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, const vf q
                 vf a = v_fma(sg, off[0], q[0]), b = v_fma(sg, off[1], q[1]), c = v_fma(sg, off[2], q[2]),
                    d = v_fma(sg, off[3], q[3]);
                 if (potential) {
-                    de_ext(dp, a, b, c, d, UB_WANT_POTENTIAL, &dist, &it, &x);
+                    de_ext(dp, lanes, a, b, c, d, UB_WANT_POTENTIAL, &dist, &it, &x);
                     v[side] = x.potential;
                 } else {
-                    de(dp, a, b, c, d, &v[side], &it);
+                    de(dp, lanes, a, b, c, d, &v[side], &it);
                 }
             }
             g[axis] = v_sub(v[0], v[1]);
         }
-        good = v_gt(v_fma(g[0], g[0], v_fma(g[1], g[1], v_mul(g[2], g[2]))), v_set1(0.0f));
+        good = m_or(good, v_gt(v_fma(g[0], g[0], v_fma(g[1], g[1], v_mul(g[2], g[2]))), v_set1(0.0f)));
     }
     if (m_bits(good) == 0xff)
         return;
@@ -487,7 +492,7 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, const vf q
             g[k] = v_select(good, g[k], v_set1(0.0f));
         return;
     }
-    de_ext(dp, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
+    de_ext(dp, lanes, q[0], q[1], q[2], q[3], UB_WANT_JACOBIAN, &dist, &it, &x);
     for (int k = 0; k < 3; k++)
         g[k] = method == UB_NORMAL_ANALYTIC ? x.normal[k] : v_select(good, g[k], x.normal[k]);
 }

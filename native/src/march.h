@@ -114,8 +114,13 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     for (int step = 0; step < o->max_steps && m_bits(active); step++) {
         if (cancelled(sc))
             return;
-        de(dp, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
-                  v_fma(s, qd[3], q0[3]), &dist, &iters);
+        /* Only the lanes still marching are evaluated; a stopped lane keeps its last estimate and
+         * escape count (those at its frozen s, where the hit lanes stopped). */
+        vf new_dist, new_iters;
+        de(dp, active, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
+                  v_fma(s, qd[3], q0[3]), &new_dist, &new_iters);
+        dist = v_select(active, new_dist, dist);
+        iters = v_select(active, new_iters, iters);
         dw = v_mul(dist, sigma);
         vf eps = threshold(dp, v_add(tb, s));
         *steps = v_count(*steps, active);
@@ -144,7 +149,8 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
         s = v_select(active, next, s);
         active = m_and(active, v_le(s, s_max));
     }
-    /* The last evaluation was at every lane's frozen s: a hit lane's estimate and escape count. */
+    /* dist and iters are every lane's last evaluation, at its frozen s: a hit lane's estimate and
+     * escape count. */
     res->hit = hit;
     /* A cancel returns above, so lanes still active here ran out of steps (where s froze). */
     res->out_of_steps = active;
@@ -156,7 +162,7 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     vf lo = prev, hi = s;
     for (int k = 0; k < o->bisection_steps && m_bits(refine) && !cancelled(sc); k++) {
         vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
-        de(dp, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
+        de(dp, refine, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
                   v_fma(mid, qd[3], q0[3]), &dist, &iters);
         vf dw = v_mul(dist, sigma);
         vm inside = m_and(refine, v_lt(dw, threshold(dp, v_add(tb, mid))));

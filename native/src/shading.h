@@ -1,8 +1,9 @@
 /* Shading of section 4: normals, Lambertian lights with the paper's axle light, shadows,
  * ambient occlusion from the distance estimate, and the sea of Fig. 5. Included by kernel.h. */
 
-/* World-space distance estimate of the union of the scene's objects at world points. */
-static vf scene_distance(const ub_scene *sc, const ub_de_params *dps, const double p[3][UB_LANES])
+/* World-space distance estimate of the union of the scene's objects at world points (those of
+ * the lanes `lanes`; the others' are unspecified). */
+static vf scene_distance(const ub_scene *sc, const ub_de_params *dps, vm lanes, const double p[3][UB_LANES])
 {
     vf best = v_set1(HUGE_VALF);
     for (int k = 0; k < sc->object_count && !cancelled(sc); k++) {
@@ -11,7 +12,7 @@ static vf scene_distance(const ub_scene *sc, const ub_de_params *dps, const doub
             continue;
         vf q[4], d, it;
         quaternion_lanes(o, p, q);
-        de(&dps[k], q[0], q[1], q[2], q[3], &d, &it);
+        de(&dps[k], lanes, q[0], q[1], q[2], q[3], &d, &it);
         best = v_min(v_mul(d, v_set1((float)o->sigma_min)), best);
     }
     return best;
@@ -34,7 +35,7 @@ static void ambient_occlusion(const ub_scene *sc, const ub_de_params *dps, int l
             for (int c = 0; c < 3; c++)
                 pts[c][l] = p[c][l] + h * n[c][l];
         float d[UB_LANES];
-        v_store(d, scene_distance(sc, dps, pts));
+        v_store(d, scene_distance(sc, dps, m_from_bits(lanes), pts));
         float w = ldexpf(1.0f, -i); /* exact: a power of two, no rounding on any libm */
         wsum += w;
         for (int l = 0; l < UB_LANES; l++) {
@@ -64,7 +65,7 @@ static void sea_normal(const ub_scene *sc, const ub_de_params *dps, const double
             pts[1][l] = p[1][l] + (s == 2 ? e : (s == 3 ? -e : 0.0));
             pts[2][l] = sh->sea_height;
         }
-        v_store(w[s], scene_distance(sc, dps, pts));
+        v_store(w[s], scene_distance(sc, dps, m_from_bits(0xff), pts));
     }
     for (int l = 0; l < UB_LANES; l++) {
         double k = 2.0 * M_PI / sh->sea_wavelength, a = sh->sea_amplitude;

@@ -136,6 +136,29 @@ def test_power_8_julia_turned_by_an_eighth():
     np.testing.assert_allclose(e1[big], e0[big], rtol=3e-3)
 
 
+@pytest.mark.parametrize("power", [2.0, 5.0, 8.0])
+def test_whole_power_where_the_angles_degenerate(power):
+    """Whole powers take de Moivre's path (bulb_step: no angles, the azimuth's cos and sin as x / rho
+    and y / rho): on the z axis (rho = 0, azimuth 0), next to it down to rho = 1e-30 (rho^2 below
+    float range), in the plane z = 0 and at the origin (r = 0) the estimate still matches float64's
+    angles, and nothing is NaN."""
+    obj = dict(kind="mandelbulb", power=power, max_iterations=10)
+    d = uc.describe(obj)
+    zs = np.linspace(-1.05, 1.05, 301) * d["bound_radius"]
+    rng = np.random.default_rng(int(power))
+    plane = rng.uniform(-1, 1, (2000, 2)) * d["bound_radius"]
+    pts = np.concatenate([np.stack([0 * zs, 0 * zs, zs], 1), np.stack([0 * zs + 1e-30, 0 * zs - 1e-30, zs], 1),
+                          np.stack([0 * zs + 1e-20, 0 * zs, zs], 1), np.stack([0 * zs, 0 * zs - 3e-7, zs], 1),
+                          np.c_[plane, np.zeros(len(plane))], [[0.0, 0.0, 0.0]]])
+    est, _, p64 = estimate(obj, pts)
+    want = bulb_ref(obj, p64)
+    assert np.isfinite(est).all() and est[-1] == 0.0 and want[-1] == 0.0
+    big = want > 1e-3
+    assert big.sum() > 400 and (want == 0).sum() > 100
+    np.testing.assert_allclose(est[big], want[big], rtol=3e-3)
+    assert np.mean((est == 0) != (want == 0)) < 0.01
+
+
 # -- no ray passes through --------------------------------------------------------------------------
 
 BULB_CAMERA = make_camera(32, 24, eye=(0.9, -2.4, 1.1), target=(0, 0, 0), fov_y=0.9)
@@ -181,11 +204,16 @@ def test_no_ray_passes_through(name, bisection):
 
 # -- every pass, both kernels, normals --------------------------------------------------------------
 
-@pytest.mark.parametrize("name", ["mandelbulb", "mandelbox", "mandelbox_julia"])
+# Whole powers, even (8; 6 in Julia mode) and odd (5), take de Moivre's path, 7.5 the angles'.
+BOTH_KERNELS = dict(FORMULA_OBJECTS, mandelbulb_5=dict(BULB, power=5.0), mandelbulb_7_5=dict(BULB, power=7.5))
+
+
+@pytest.mark.parametrize("name", ["mandelbulb", "mandelbulb_5", "mandelbulb_7_5", "mandelbulb_julia", "mandelbox",
+                                  "mandelbox_julia"])
 def test_every_pass_both_kernels_bit_identical(name):
     """Every effect (soft shadows, reflections, AO, fog, glow, the sea, two samples): the AVX2 and
     the portable kernels give the same bytes in every pass, and threads and tiles do not matter."""
-    obj = FORMULA_OBJECTS[name]
+    obj = BOTH_KERNELS[name]
     eye = (0.9, -2.6, 1.2) if obj["kind"] == "mandelbulb" else (7.0, -22.0, 10.0)
     cam = make_camera(37, 29, eye=eye)
     shading = dict(HEAVY_SHADING, use_sea=False)
