@@ -122,7 +122,8 @@ def link_beside(context, fractal, new):
 def make_active(context, objects):
     """Only `objects` selected; the last is the active object."""
     for o in context.view_layer.objects:
-        if o.select_get():
+        # None: an object removed since the view layer last synced (Blender 5.x syncs lazily)
+        if o is not None and o.select_get():
             o.select_set(False)
     for o in objects:
         o.select_set(True)
