@@ -7,20 +7,31 @@ material made with it reads the trap through an Attribute node, so Cycles and EE
 
 A keyframed fractal: with "Frame Range" on, one mesh per frame from the scene's start to end frame,
 each shown (viewport and render) only on its own frame: a mesh sequence that plays back and renders
-as the animation. By hand, the same: step the frames and convert at each."""
+as the animation. By hand, the same: step the frames and convert at each.
+
+Convert to Volume: the same mesh, made into an OpenVDB grid by Blender's own OpenVDB (the "Mesh to
+SDF Grid" or "Mesh to Density Grid" geometry node, evaluated once on a temporary object), written
+to a .vdb file and loaded by a new Volume object, which Cycles and EEVEE render. Why this way: the
+OpenVDB Python module (`openvdb`) is bundled with Blender only from 4.4 on and is not on bpy's
+path, and PyPI has no maintained openvdb wheel, while these nodes exist in every Blender from 4.2
+(in 4.2 behind the "New Volume Nodes" experimental option for the Add menu, yet they evaluate) to
+5.2. The voxel is the mesh's lattice cell, so the grid resolves what the mesh does."""
+import os
 import time
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
-from . import export, utils
+from . import engine, export, utils
 
 TRAP_ATTRIBUTE = "unbound_trap"
 ITERATIONS_ATTRIBUTE = "unbound_iterations"
 
 
-def build_mesh(name, mesh):
-    """A Blender mesh datablock from a core mesh (unbound_core.mesh.Mesh)."""
+def build_mesh(name, mesh, bare=False):
+    """A Blender mesh datablock from a core mesh (unbound_core.mesh.Mesh). Bare: positions and
+    triangles alone, unchecked (the temporary mesh Convert to Volume voxelizes: the core's
+    triangles index its vertices by construction, and validate() took longer than all the rest)."""
     import numpy as np
 
     me = bpy.data.meshes.new(name)
@@ -35,6 +46,8 @@ def build_mesh(name, mesh):
             and not me.polygons.bl_rna.properties["loop_total"].is_readonly:
         me.polygons.foreach_set("loop_total", np.full(nf, 3, np.int32))
     me.update(calc_edges=True)
+    if bare:
+        return me
     for attr_name, values in ((TRAP_ATTRIBUTE, mesh.trap), (ITERATIONS_ATTRIBUTE, mesh.iterations)):
         attr = me.attributes.new(attr_name, 'FLOAT', 'POINT')
         attr.data.foreach_set("value", values)
@@ -72,13 +85,59 @@ def extract(ob, depsgraph, resolution, min_faces, progress=None, cancel=None, th
                              threads=threads, progress=progress, cancel=cancel)
 
 
-class UNBOUND_OT_convert_to_mesh(bpy.types.Operator):
-    """The fractal's surface as a closed, manifold mesh (watertight, for 3-D printing and any
-    render engine), with the orbit trap and escape count as attributes"""
-    bl_idname = "object.unbound_convert_to_mesh"
-    bl_label = "Convert to Mesh"
-    bl_options = {'REGISTER', 'UNDO'}
+def extract_with_progress(context, ob, resolution, min_faces):
+    """extract() at the current frame, with Blender's progress counter on the cursor."""
+    wm = context.window_manager
+    wm.progress_begin(0, 1000)
+    try:
+        return extract(ob, context.evaluated_depsgraph_get(), resolution, min_faces,
+                       progress=lambda f: wm.progress_update(int(1000 * f)) and False)
+    finally:
+        wm.progress_end()
 
+
+def for_frames(scene, use_frame_range, convert_frame):
+    """[convert_frame(None)] at the current frame; with use_frame_range, [convert_frame(f)] for each
+    frame f of the scene's range, set in turn, and the current frame set again afterwards."""
+    if not use_frame_range:
+        return [convert_frame(None)]
+    current = scene.frame_current
+    try:
+        results = []
+        for frame in range(scene.frame_start, scene.frame_end + 1):
+            scene.frame_set(frame)
+            results.append(convert_frame(frame))
+        return results
+    finally:
+        scene.frame_set(current)
+
+
+def link_beside(context, fractal, new):
+    """`new` gets the fractal's world matrix and joins its first collection."""
+    new.matrix_world = fractal.matrix_world
+    collections = fractal.users_collection or (context.collection,)
+    collections[0].objects.link(new)
+
+
+def make_active(context, objects):
+    """Only `objects` selected; the last is the active object."""
+    for o in context.view_layer.objects:
+        # None: an object removed since the view layer last synced (Blender 5.x syncs lazily)
+        if o is not None and o.select_get():
+            o.select_set(False)
+    for o in objects:
+        o.select_set(True)
+    context.view_layer.objects.active = objects[-1]
+
+
+# What a conversion reports as a clear error (nothing made) rather than a traceback: the core's
+# ImportError, its parameter checks, memory, Blender's refusals (RuntimeError) and files (OSError).
+CONVERT_ERRORS = (ImportError, ValueError, TypeError, MemoryError, RuntimeError, OSError, export.RenderError)
+
+
+class ConvertOptions:
+    """What Convert to Mesh and Convert to Volume share (a mixin: Blender registers the properties
+    its subclasses inherit, as with bpy_extras' ExportHelper)."""
     resolution: IntProperty(name="Resolution", description="Lattice cells across the bounding ball's diameter; "
                             "time and memory grow with its square (the surface), not its cube",
                             default=256, min=8, max=8192, soft_max=2048)
@@ -88,81 +147,326 @@ class UNBOUND_OT_convert_to_mesh(bpy.types.Operator):
                          default='KEEP')
     crumb_faces: IntProperty(name="Crumb Size", description="Pieces with fewer faces are removed",
                              default=1000, min=1)
-    use_frame_range: BoolProperty(name="Frame Range", description="One mesh per frame of the scene's frame "
-                                  "range, each shown only on its frame (a mesh sequence)", default=False)
-    use_material: BoolProperty(name="Trap Material", description="Give the mesh a material coloured by the "
-                               "orbit trap attribute", default=True)
 
     @classmethod
     def poll(cls, context):
         return utils.is_fractal(context.active_object)
 
-    def _convert(self, context, ob, frame=None):
-        depsgraph = context.evaluated_depsgraph_get()
-        wm = context.window_manager
-        wm.progress_begin(0, 1000)
-        try:
-            mesh = extract(ob, depsgraph, self.resolution, self.crumb_faces if self.crumbs == 'REMOVE' else 0,
-                           progress=lambda f: wm.progress_update(int(1000 * f)) and False)
-        finally:
-            wm.progress_end()
+    def min_faces(self):
+        return self.crumb_faces if self.crumbs == 'REMOVE' else 0
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+
+class UNBOUND_OT_convert_to_mesh(ConvertOptions, bpy.types.Operator):
+    """The fractal's surface as a closed, manifold mesh (watertight, for 3-D printing and any
+    render engine), with the orbit trap and escape count as attributes"""
+    bl_idname = "object.unbound_convert_to_mesh"
+    bl_label = "Convert to Mesh"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    use_frame_range: BoolProperty(name="Frame Range", description="One mesh per frame of the scene's frame "
+                                  "range, each shown only on its frame (a mesh sequence)", default=False)
+    use_material: BoolProperty(name="Trap Material", description="Give the mesh a material coloured by the "
+                               "orbit trap attribute", default=True)
+
+    def _convert(self, context, ob, frame):
+        mesh = extract_with_progress(context, ob, self.resolution, self.min_faces())
         name = ob.name + (" Mesh" if frame is None else " Mesh %04d" % frame)
         me = build_mesh(name, mesh)
         if self.use_material:
             me.materials.append(trap_material())
         new = bpy.data.objects.new(name, me)
-        new.matrix_world = ob.matrix_world
-        collections = ob.users_collection or (context.collection,)
-        collections[0].objects.link(new)
+        link_beside(context, ob, new)
+        if frame is not None:  # shown on its own frame only
+            for f, hidden in ((frame - 1, True), (frame, False), (frame + 1, True)):
+                new.hide_viewport = new.hide_render = hidden
+                new.keyframe_insert("hide_viewport", frame=f)
+                new.keyframe_insert("hide_render", frame=f)
         return new, mesh.stats
 
     def execute(self, context):
         ob = context.active_object
         start = time.perf_counter()
         try:
-            if not self.use_frame_range:
-                new, stats = self._convert(context, ob)
-                made = [new]
-            else:
-                scene = context.scene
-                current = scene.frame_current
-                made = []
-                try:
-                    for frame in range(scene.frame_start, scene.frame_end + 1):
-                        scene.frame_set(frame)
-                        new, stats = self._convert(context, ob, frame)
-                        for f, hidden in ((frame - 1, True), (frame, False), (frame + 1, True)):
-                            new.hide_viewport = new.hide_render = hidden
-                            new.keyframe_insert("hide_viewport", frame=f)
-                            new.keyframe_insert("hide_render", frame=f)
-                        made.append(new)
-                finally:
-                    scene.frame_set(current)
-        except (ImportError, ValueError, TypeError, MemoryError, export.RenderError) as exc:
+            made = for_frames(context.scene, self.use_frame_range, lambda frame: self._convert(context, ob, frame))
+        except CONVERT_ERRORS as exc:
             self.report({'ERROR'}, "Unbound: %s" % exc)
             return {'CANCELLED'}
-        for o in context.view_layer.objects:
-            if o.select_get():
-                o.select_set(False)
-        for o in made:
-            o.select_set(True)
-        context.view_layer.objects.active = made[-1]
+        make_active(context, [new for new, _ in made])
+        last, stats = made[-1]
         self.report({'INFO'}, "Unbound: %d mesh(es), last %d vertices, %d faces, %d piece(s) in %.1f s"
-                    % (len(made), len(made[-1].data.vertices), len(made[-1].data.polygons),
+                    % (len(made), len(last.data.vertices), len(last.data.polygons),
                        stats["pieces"] - stats["pieces_removed"], time.perf_counter() - start))
         return {'FINISHED'}
 
-    def invoke(self, context, event):
-        return context.window_manager.invoke_props_dialog(self)
+
+# ------------------------------------------------------------------------------- Convert to Volume
+
+# The grid kinds: (geometry node that makes it from a mesh, grid name). A signed distance field is
+# OpenVDB's narrow-band level set (class "level set": negative inside, zero on the surface, kept
+# within Band Width voxels of it); a density grid is its fog volume (0 outside, rising to 1 over
+# Band Width voxels inside, 1 deeper).
+GRID_KINDS = {'SDF': ("GeometryNodeMeshToSDFGrid", "sdf"),
+              'DENSITY': ("GeometryNodeMeshToDensityGrid", "density")}
+# Peak bytes per band voxel (band_voxels' estimate) while write_grid runs: the temporary mesh and
+# Blender's evaluated copy of it, OpenVDB's intermediate grids (meshToVolume's closest-triangle
+# indices and masks), the grid itself in partly filled 8^3 leaves, the file's buffers. Measured by
+# bench/bench_volume.py as the growth of peak resident memory (bpy 4.2, default Julia set): 125,
+# 124 and 133 at resolutions 128, 256 and 512 (the estimate is 1.3-1.6 times the active voxels
+# OpenVDB keeps); a margin above that.
+VOXEL_BYTES = 200
+
+
+def band_voxels(mesh, voxel_size, band_width):
+    """Voxels of a band `band_width` voxels deep on either side of the mesh: its area per voxel
+    face, times the band's depth."""
+    import numpy as np
+
+    tri = mesh.vertices[mesh.faces].astype(np.float64)
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    return 2 * band_width * area / (voxel_size * voxel_size)
+
+
+def grid_memory_preflight(voxels, resolution):
+    """A MemoryError before OpenVDB allocates anything (it would end Blender) when the grid cannot fit."""
+    needed, available = voxels * VOXEL_BYTES, engine.memory_available()
+    if available is not None and needed > available:
+        raise MemoryError("this volume needs about %.1f GB of memory (about %.3g voxels at resolution %d) but "
+                          "about %.1f GB is available: lower the resolution"
+                          % (needed / 1e9, voxels, resolution, available / 1e9))
+
+
+def grid_node_tree(kind, mesh_object, voxel_size, band_width):
+    """A geometry node tree: the mesh of `mesh_object` as a grid of `kind`, stored by its name."""
+    node_type, grid_name = GRID_KINDS[kind]
+    tree = bpy.data.node_groups.new("Unbound Mesh to Grid", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
+    tree.interface.new_socket("Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    nodes, links = tree.nodes, tree.links
+    mesh_in = nodes.new("GeometryNodeObjectInfo")
+    mesh_in.inputs["Object"].default_value = mesh_object
+    to_grid = nodes.new(node_type)
+    to_grid.inputs["Voxel Size"].default_value = voxel_size
+    if kind == 'SDF':
+        to_grid.inputs["Band Width"].default_value = band_width
+    else:
+        to_grid.inputs["Gradient Width"].default_value = band_width * voxel_size
+        to_grid.inputs["Density"].default_value = 1.0
+    store = nodes.new("GeometryNodeStoreNamedGrid")
+    store.inputs["Name"].default_value = grid_name
+    links.new(mesh_in.outputs["Geometry"], to_grid.inputs["Mesh"])
+    links.new(to_grid.outputs[0], store.inputs["Grid"])
+    links.new(nodes.new("NodeGroupInput").outputs[0], store.inputs["Volume"])
+    links.new(store.outputs[0], nodes.new("NodeGroupOutput").inputs[0])
+    return tree
+
+
+def write_grid(context, mesh, kind, voxel_size, band_width, path):
+    """Writes the grid of `kind` made from `mesh` (a core mesh, object space) to the .vdb file
+    `path`, through a temporary mesh object, volume object and node tree, all removed again."""
+    made = []  # (collection of bpy.data, datablock), removed in reverse order
+    try:
+        me = build_mesh("Unbound Temporary Mesh", mesh, bare=True)
+        made.append((bpy.data.meshes, me))
+        mesh_object = bpy.data.objects.new(me.name, me)  # read by the tree; in no scene
+        made.append((bpy.data.objects, mesh_object))
+        tree = grid_node_tree(kind, mesh_object, voxel_size, band_width)
+        made.append((bpy.data.node_groups, tree))
+        volume = bpy.data.volumes.new("Unbound Temporary Volume")
+        made.append((bpy.data.volumes, volume))
+        holder = bpy.data.objects.new(volume.name, volume)
+        made.append((bpy.data.objects, holder))
+        context.scene.collection.objects.link(holder)  # evaluated only in the view layer
+        holder.modifiers.new("Mesh to Grid", 'NODES').node_group = tree
+        grids = holder.evaluated_get(context.evaluated_depsgraph_get()).data.grids
+        if not len(grids):
+            raise RuntimeError("Blender made no grid from the mesh%s" % (
+                ": " + grids.error_message if grids.error_message else ""))
+        grids.save(path)
+    finally:
+        for collection, datablock in reversed(made):
+            collection.remove(datablock)
+
+
+# The volume material's density per Blender unit inside the surface: an optical depth of 1 within a
+# hundredth of a unit, so a fractal of about unit size looks solid and its finest branches like
+# smoke. The material's "Density" node holds it for editing.
+VOLUME_DENSITY = 100.0
+
+
+def volume_material(kind):
+    """A Principled Volume of uniform density inside the surface: where the SDF is negative, or as
+    much as the density grid says; one material per kind, made once and shared."""
+    grid_name = GRID_KINDS[kind][1]
+    name = "Unbound Volume " + ("SDF" if kind == 'SDF' else "Density")
+    mat = bpy.data.materials.get(name)
+    if mat is not None:
+        return mat
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    for node in [n for n in nodes if n.type != 'OUTPUT_MATERIAL']:
+        nodes.remove(node)
+    output = next(n for n in nodes if n.type == 'OUTPUT_MATERIAL')
+    shader = nodes.new("ShaderNodeVolumePrincipled")
+    shader.location = (0, 300)
+    # the density comes through the link alone, not multiplied by a grid of Blender's choosing
+    shader.inputs["Density Attribute"].default_value = ""
+    links.new(shader.outputs["Volume"], output.inputs["Volume"])
+    grid = nodes.new("ShaderNodeAttribute")
+    grid.attribute_name = grid_name
+    grid.location = (-700, 300)
+    fill = grid.outputs["Fac"]
+    if kind == 'SDF':
+        inside = nodes.new("ShaderNodeMath")
+        inside.operation = 'LESS_THAN'
+        inside.inputs[1].default_value = 0.0
+        inside.location = (-500, 300)
+        links.new(fill, inside.inputs[0])
+        fill = inside.outputs["Value"]
+    density = nodes.new("ShaderNodeMath")
+    density.operation = 'MULTIPLY'
+    density.label = "Density"
+    density.inputs[1].default_value = VOLUME_DENSITY
+    density.location = (-300, 300)
+    links.new(fill, density.inputs[0])
+    links.new(density.outputs["Value"], shader.inputs["Density"])
+    return mat
+
+
+def referenced_vdb_paths():
+    """The files Volume datablocks of this .blend read (absolute, normalised)."""
+    return {os.path.normcase(os.path.normpath(bpy.path.abspath(v.filepath, library=v.library)))
+            for v in bpy.data.volumes if v.filepath}
+
+
+class UNBOUND_OT_convert_to_volume(ConvertOptions, bpy.types.Operator):
+    """The fractal as an OpenVDB volume (a narrow-band signed distance field or a density grid),
+    written to a .vdb file and loaded as a Volume object that Cycles and EEVEE render"""
+    bl_idname = "object.unbound_convert_to_volume"
+    bl_label = "Convert to Volume"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    grid: EnumProperty(name="Grid", description="What the voxels hold",
+                       items=[('SDF', "Signed Distance", "A narrow-band level set named 'sdf': signed distance "
+                               "to the surface (negative inside) within Band Width voxels of it"),
+                              ('DENSITY', "Density", "A fog volume named 'density': 0 outside, rising to 1 over "
+                               "Band Width voxels inside the surface, 1 deeper")],
+                       default='SDF')
+    band_width: IntProperty(name="Band Width", description="Voxels either side of the surface the signed "
+                            "distance is kept for (OpenVDB's usual 3); the density's ramp inside", default=3,
+                            min=1, max=100)
+    directory: StringProperty(name="Directory", description="Folder of the .vdb file, named after the fractal "
+                              "('//': beside the .blend; an unsaved .blend: the system's temporary folder)",
+                              default="//", subtype='DIR_PATH')
+    use_frame_range: BoolProperty(name="Frame Range", description="One .vdb file per frame of the scene's frame "
+                                  "range, played by the Volume object as a sequence", default=False)
+    use_material: BoolProperty(name="Volume Material", description="Give the volume a material of uniform "
+                               "density inside the surface", default=True)
+
+    def _folder(self):
+        """(absolute folder for the files, whether the path goes in as relative to the .blend)."""
+        relative = self.directory.startswith("//")
+        if relative and not bpy.data.filepath:
+            # Blender deletes its session folder (bpy.app.tempdir) when it quits, so the system's
+            # temporary folder above it, where Blender puts an unsaved file's fluid caches.
+            base = os.path.dirname(os.path.normpath(bpy.app.tempdir))
+            return os.path.join(base, self.directory[2:]), False
+        folder = bpy.path.abspath(self.directory)
+        if not folder:
+            raise ValueError("no directory for the .vdb file")
+        return folder, relative
+
+    def _stem(self, folder, fractal, frames):
+        """The files' common name: the fractal's, with .001, .002... while another Volume of this
+        .blend reads a file of that name (an unread file of that name is overwritten: redoing the
+        operator rewrites its own file)."""
+        taken = referenced_vdb_paths()
+        base = bpy.path.clean_name(fractal.name)
+        for number in range(10000):
+            stem = base if number == 0 else "%s.%03d" % (base, number)
+            if os.path.normcase(os.path.normpath(os.path.join(folder, vdb_name(stem, frames[0])))) not in taken:
+                return stem
+        raise ValueError("no free .vdb file name for %r in %s" % (base, folder))
+
+    def execute(self, context):
+        fractal, scene = context.active_object, context.scene
+        start = time.perf_counter()
+        written = []
+        try:
+            folder, relative = self._folder()
+            try:
+                os.makedirs(folder, exist_ok=True)
+            except OSError as exc:
+                raise OSError("cannot write the .vdb file into %s: %s" % (folder, exc.strerror)) from exc
+            frames = list(range(scene.frame_start, scene.frame_end + 1)) if self.use_frame_range else [None]
+            stem = self._stem(folder, fractal, frames)
+
+            def convert_frame(frame):
+                mesh = extract_with_progress(context, fractal, self.resolution, self.min_faces())
+                if not len(mesh.faces):
+                    raise ValueError("the fractal has no surface at resolution %d%s" % (
+                        self.resolution, "" if frame is None else " on frame %d" % frame))
+                voxel_size = mesh.stats["cell_size"]
+                voxels = band_voxels(mesh, voxel_size, self.band_width)
+                grid_memory_preflight(voxels, self.resolution)
+                path = os.path.join(folder, vdb_name(stem, frame))
+                written.append(path)
+                write_grid(context, mesh, self.grid, voxel_size, self.band_width, path)
+                return voxels, voxel_size
+
+            made = for_frames(scene, self.use_frame_range, convert_frame)
+            new = self._volume_object(context, fractal, written, relative)
+        except CONVERT_ERRORS as exc:
+            for path in written:  # nothing half-made stays, on disk either
+                if os.path.exists(path):
+                    os.remove(path)
+            self.report({'ERROR'}, "Unbound: %s" % exc)
+            return {'CANCELLED'}
+        make_active(context, [new])
+        voxels, voxel_size = made[-1]
+        size = sum(os.path.getsize(p) for p in written)
+        self.report({'INFO'}, "Unbound: %s (%d file%s, %.1f MB), voxel size %.4g, about %.3g voxels%s, in %.1f s"
+                    % (written[-1], len(written), "" if len(written) == 1 else "s", size / 1e6, voxel_size,
+                       voxels, " per frame" if len(written) > 1 else "", time.perf_counter() - start))
+        if not bpy.data.filepath and self.directory.startswith("//"):
+            self.report({'WARNING'}, "Unbound: the .blend is unsaved, so the .vdb went to the system's temporary "
+                        "folder: save the .blend and convert again, or pack it (File > External Data > Pack "
+                        "Resources)")
+        return {'FINISHED'}
+
+    def _volume_object(self, context, fractal, written, relative):
+        """The Volume object reading the written file(s), placed like the fractal."""
+        name = fractal.name + " Volume"
+        volume = bpy.data.volumes.new(name)
+        volume.filepath = bpy.path.relpath(written[0]) if relative else written[0]
+        if self.use_frame_range:
+            scene = context.scene
+            volume.is_sequence = True
+            volume.frame_start = scene.frame_start
+            volume.frame_duration = len(written)
+            # file numbers are scene frames: frame_start plays file number frame_start
+            volume.frame_offset = scene.frame_start - 1
+            volume.sequence_mode = 'CLIP'
+        if self.use_material:
+            volume.materials.append(volume_material(self.grid))
+        new = bpy.data.objects.new(name, volume)
+        link_beside(context, fractal, new)
+        return new
+
+
+def vdb_name(stem, frame):
+    """The .vdb file's name: stem.vdb, or stem_0001.vdb for frame 1 of a sequence."""
+    return stem + ".vdb" if frame is None else "%s_%04d.vdb" % (stem, frame)
 
 
 def menu_convert(self, context):
     if utils.is_fractal(context.active_object):
         self.layout.separator()
         self.layout.operator(UNBOUND_OT_convert_to_mesh.bl_idname, icon='MESH_DATA')
-        if hasattr(bpy.types, "OBJECT_OT_unbound_convert_to_volume") or \
-                "unbound_convert_to_volume" in dir(bpy.ops.object):
-            self.layout.operator("object.unbound_convert_to_volume", icon='VOLUME_DATA')
+        self.layout.operator(UNBOUND_OT_convert_to_volume.bl_idname, icon='VOLUME_DATA')
 
 
 class UNBOUND_PT_fractal_convert(bpy.types.Panel):
@@ -180,11 +484,10 @@ class UNBOUND_PT_fractal_convert(bpy.types.Panel):
     def draw(self, context):
         col = self.layout.column(align=True)
         col.operator(UNBOUND_OT_convert_to_mesh.bl_idname, icon='MESH_DATA')
-        if "unbound_convert_to_volume" in dir(bpy.ops.object):
-            col.operator("object.unbound_convert_to_volume", icon='VOLUME_DATA')
+        col.operator(UNBOUND_OT_convert_to_volume.bl_idname, icon='VOLUME_DATA')
 
 
-classes = (UNBOUND_OT_convert_to_mesh, UNBOUND_PT_fractal_convert)
+classes = (UNBOUND_OT_convert_to_mesh, UNBOUND_OT_convert_to_volume, UNBOUND_PT_fractal_convert)
 
 
 def register():

@@ -252,6 +252,27 @@ def test_gui_at_home_in_blender(user_dir):
         assert px[..., :3].std() > 10, "%s is blank" % name
 
 
+def test_gui_convert_to_volume_undo_and_redo(user_dir):
+    """Convert to Volume in the real GUI (gui_volume.py) on the unit ball of a saved .blend: the
+    Volume object is active, its .vdb beside the .blend, no temporary left; Edit > Undo (Blender's
+    undo stack, which background bpy lacks) removes it and makes the fractal active again, Redo
+    brings it back. Screenshots for people: Solid shading (Blender draws the SDF's values as
+    density: a faint shell), Rendered by EEVEE, the Object > Convert menu."""
+    names = ["volume_solid.png", "volume_eevee.png", "volume_convert_menu.png"]
+    log = run_gui(user_dir, "gui_volume.py", names, timeout=300)
+    steps = {e["step"]: e for e in log if "step" in e}
+    c = steps["convert"]
+    assert c["op"] == ["FINISHED"] and c["after"]["active_type"] == "VOLUME", c
+    assert c["filepath"] == "//Quaternion_Julia.vdb" and c["file_exists"], c
+    assert c["after"]["volumes"] == 1 and c["after"]["meshes"] == c["before"]["meshes"], c
+    assert c["after"]["node_groups"] == c["before"]["node_groups"] == 0, c
+    u = steps["undo"]
+    assert u["undo"] == ["FINISHED"] and u["undone"] == c["before"], u
+    assert u["redo"] == ["FINISHED"] and u["redone"] == c["after"], u
+    for name in names:
+        assert (SHOTS / name).exists(), name
+
+
 def test_ctrl_c_cancels_a_1080p_render_within_100ms(user_dir):
     """`blender -b` turns Ctrl-C (SIGINT) into its break flag, which RenderEngine.test_break()
     reads: the engine polls it every 20 ms during the native render. A 1920x1080 frame with soft
