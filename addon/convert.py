@@ -75,13 +75,17 @@ def trap_material(name="Unbound Trap"):
     return mat
 
 
+def surface_epsilon(ob):
+    """The mesh's surface is {estimate = epsilon}: the fractal's own epsilon in the Fixed threshold
+    mode (the surface its render shows), else 0, which the core takes as a 64th of a cell."""
+    return ob.unbound.epsilon if ob.unbound.threshold_mode == 'FIXED' else 0.0
+
+
 def extract(ob, depsgraph, resolution, min_faces, progress=None, cancel=None, threads=0):
-    """The core's mesh of fractal `ob`. The surface is {estimate = epsilon}: the fractal's own
-    epsilon in the Fixed threshold mode (the surface its render shows), else a 64th of a cell."""
+    """The core's mesh of fractal `ob` (its surface: surface_epsilon)."""
     core = utils.native()
     params = export.object_parameters(ob, depsgraph, with_ramp=False)
-    epsilon = ob.unbound.epsilon if ob.unbound.threshold_mode == 'FIXED' else 0.0
-    return core.mesh.extract(params, resolution=resolution, epsilon=epsilon, min_faces=min_faces,
+    return core.mesh.extract(params, resolution=resolution, epsilon=surface_epsilon(ob), min_faces=min_faces,
                              threads=threads, progress=progress, cancel=cancel)
 
 

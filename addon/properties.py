@@ -281,6 +281,13 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
                                  default=10, min=0, max=64)
     color: FloatVectorProperty(name="Color", description="Surface colour", subtype='COLOR', size=3,
                                default=(0.8, 0.8, 0.8), min=0.0, max=1e6, soft_max=1.0)
+    # The proxy of Solid, Material Preview and Wireframe shading (proxy.py)
+    show_proxy: BoolProperty(name="Viewport Proxy", description="In Solid, Material Preview and Wireframe "
+                             "shading draw a low-resolution surface of the fractal (the mesh Convert to Mesh "
+                             "makes), built in the background", default=True)
+    proxy_resolution: IntProperty(name="Resolution", description="Proxy: lattice cells across the bounding "
+                                  "ball's diameter; time and triangles grow with its square", default=64, min=8,
+                                  max=512, soft_max=128)
     # Shading (section 4 of the paper)
     normal_method: EnumProperty(name="Normals", description="How surface normals are approximated "
                                 "(section 4.1)", items=NORMAL_METHODS, default='GRADIENT_DISTANCE')

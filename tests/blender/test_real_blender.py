@@ -293,3 +293,105 @@ def test_ctrl_c_cancels_a_1080p_render_within_100ms(user_dir):
     # Blender ran its script to the end and quit by itself: status 1 after a break (its own
     # convention in background mode), never a signal.
     assert "UNBOUND_CANCEL_RC 1" in out or "UNBOUND_CANCEL_RC 0" in out, out[-4000:]
+
+
+# Issue 17 in one GUI session (gui_proxy_f12.py): the Solid-mode proxy and F12's progress ---------
+
+PROXY_SHOTS = ["proxy_off.png", "proxy_solid.png", "proxy_julia.png", "proxy_wire.png", "proxy_wire_off.png",
+               "proxy_material.png", "f12_window.png"]
+
+
+@pytest.fixture(scope="module")
+def proxy_f12_log(user_dir):
+    return run_gui(user_dir, "gui_proxy_f12.py", PROXY_SHOTS, timeout=300)
+
+
+def region_crop(name, rect):
+    """The 3D view's region (x, y, w, h, bottom-left origin) of screenshot `name`, as int RGB."""
+    x, y, w, h = rect
+    px = read_png(SHOTS / name).astype(int)
+    return px[SCREEN[1] - (y + h):SCREEN[1] - y, x:x + w, :3]
+
+
+def changed(a, b, rect):
+    """Pixels of the region that differ between screenshots a and b by more than 8 in a channel."""
+    return np.abs(region_crop(a, rect) - region_crop(b, rect)).max(-1) > 8
+
+
+def disk_distance(shape, centre, radius):
+    """Per pixel of a region (rows top-down): distance of its centre from the projected ball's
+    centre, in units of the ball's projected radius."""
+    h, w = shape
+    cols, rows = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    return np.hypot(cols - centre[0], (h - rows) - centre[1]) / radius
+
+
+def test_gui_solid_proxy_shows_the_fractal(proxy_f12_log):
+    """Solid shading, front orthographic view of mu = 0 (the unit ball) behind a small cube: the
+    pixels the proxy changes (screenshots with it off and on) are the projected unit ball, less
+    the cube in front of it (depth-tested). A changed mu changes them; Wireframe shading draws
+    lines inside the ball; Material Preview draws it, Rendered shading does not."""
+    steps = {e["step"]: e for e in proxy_f12_log if "step" in e}
+    setup, on = steps["setup"], steps["proxy_solid"]
+    assert setup["add_op"] == ["FINISHED"] and setup["is_fractal"] and setup["shading"] == "SOLID", setup
+    assert on["shader_ok"] and on["faces"] > 1000, on
+    assert on["region"] == steps["proxy_off"]["region"] and on["centre"] == steps["proxy_off"]["centre"], steps
+    rect, centre = on["region"], on["centre"]
+    rx, ry = on["radius"]
+    assert rx > 50 and abs(rx - ry) < 0.5, on["radius"]   # orthographic: a circle, large enough to judge
+    drawn = changed("proxy_off.png", "proxy_solid.png", rect)
+    d = disk_distance(drawn.shape, centre, rx)
+    h = drawn.shape[0]
+    cols, rows = np.meshgrid(np.arange(drawn.shape[1]) + 0.5, h - (np.arange(h) + 0.5))
+    x0, y0, x1, y1 = on["cube"]
+    in_cube = (cols > x0 + 2) & (cols < x1 - 2) & (rows > y0 + 2) & (rows < y1 - 2)
+    assert in_cube.sum() > 400, on["cube"]
+    # The proxy's vertices lie within a cell of the sphere; 3 pixels more for the overlay's circle.
+    margin = on["cell"] + 3.0 / rx
+    inside, outside = (d < 1 - margin) & ~in_cube, d > 1 + margin
+    print("proxy: %d faces in %.3f s; ball radius %.1f px; changed inside %.4f, outside %.5f, behind the cube %.4f"
+          % (on["faces"], on["seconds"], rx, drawn[inside].mean(), drawn[outside].mean(), drawn[in_cube].mean()))
+    assert drawn[inside].mean() > 0.99, drawn[inside].mean()
+    assert drawn[outside].mean() < 0.001, drawn[outside].mean()
+    assert drawn[in_cube].mean() < 0.01, drawn[in_cube].mean()      # the cube in front hides it
+    # mu = -0.2+0.8i: another shape.
+    julia = changed("proxy_off.png", "proxy_julia.png", rect)
+    assert julia.mean() > 0.01 and (julia & drawn).sum() / (julia | drawn).sum() < 0.8
+    # Wireframe: lines over the ball, nothing outside it.
+    wire = changed("proxy_wire_off.png", "proxy_wire.png", rect)
+    assert wire[inside].mean() > 0.05 and wire[outside].mean() < 0.001, (wire[inside].mean(), wire[outside].mean())
+    assert steps["material"]["drawn"] >= 1, steps["material"]
+    assert steps["rendered"]["drawn"] == 0 and steps["rendered"]["sessions"] == 1, steps["rendered"]
+
+
+def test_gui_f12_result_changes_during_the_render(proxy_f12_log):
+    """F12 (render.render INVOKE_DEFAULT into the render window's Image Editor) of 12 samples with
+    every sample uploaded, the window filmed by ffmpeg 5 times a second: the image area shows at
+    least two pictures that are neither the empty window before F12 nor the finished render (so
+    they were shown while it rendered), the film ends on the finished picture, and the Render
+    Result then equals a blocking render of the same scene, bit for bit."""
+    f12 = next(e for e in proxy_f12_log if e.get("step") == "f12")
+    invoked = next(e for e in proxy_f12_log if e.get("step") == "f12_invoked")
+    assert invoked["op"] == ["RUNNING_MODAL"] and invoked["windows"] == 2, invoked
+    assert f12["samples_done"] == f12["sample_count"] and f12["cancelled"] is False, f12
+    assert f12["ffmpeg_rc"] == 0, f12
+    frames = sorted((SHOTS / f12["frames"]).glob("*.png"))
+    assert len(frames) >= 10, len(frames)
+    # The image area: the window less its header (top) and a margin.
+    images = [read_png(f)[40:-20, 20:-20, :3] for f in frames]
+    empty, final = images[0], images[-1]
+    assert np.array_equal(images[-2], final), "the film ends before the window settled"
+    shown = []
+    for img in images[1:-1]:
+        if not np.array_equal(img, empty) and not np.array_equal(img, final):
+            if not any(np.array_equal(img, s) for s in shown):
+                shown.append(img)
+    first_change = next(i for i, img in enumerate(images) if not np.array_equal(img, empty))
+    print("F12: %.2f s render; %d frames at %d fps; %d pictures shown before the end; first change at frame %d; "
+          "blocking reference %.2f s" % (f12["render_seconds"], len(frames), f12["fps"], len(shown), first_change,
+                                         f12["reference_seconds"]))
+    assert len(shown) >= 2, (len(shown), f12)
+    # Each picture shows something over the empty window (the fractal's pixels, not the header).
+    assert all((np.abs(img.astype(int) - empty).max(-1) > 20).mean() > 0.005 for img in shown)
+    assert f12["shown_after_end"]["digest"] == f12["reference"]["digest"], f12
+    assert f12["reference"]["coverage"] > 0.02 and f12["reference_op"] == ["FINISHED"], f12

@@ -19,6 +19,8 @@ ADDON_ONLY = {
         "hybrid_steps": "hybrid_steps (export.object_parameters: formula index, count)",
         "hybrid_active_step": "the entry shown for editing",
         "color_ramp_texture": "color_ramp (export.ramp_table)",
+        "show_proxy": "proxy.py: whether Solid shading draws the surface",
+        "proxy_resolution": "proxy.py: extract_mesh's resolution for the Solid-shading surface",
     },
     "scene": {
         "use_scene_lights": "lights (export.light_description of the scene's lights)",
