@@ -328,12 +328,67 @@ static inline void de_cubic(const ub_de_params *p, vm lanes, vf ar, vf ai, vf br
         x->normal[0] = x->normal[1] = x->normal[2] = v_set1(0.0f);
 }
 
-/* 3-D IFS (section 5.3): the bounding-ball hierarchy of ifs.c, lane by lane in double precision.
- * The bound is signed (negative inside a leaf ball), so gradients give the leaves' normals. The
- * escape count is the depth that settled the bound, the orbit trap the leaf's address. */
+/* 3-D IFS with mirror-symmetric pieces (ifs.c, detect_mirror_pieces: the Sierpinski tetrahedron):
+ * at each level the nearest leaf ball lies in the piece whose image of the centre is nearest, so
+ * the estimate follows that one path, x <- (x - t_i) / s, and ends with its leaf ball's signed
+ * distance s^depth (|x - c| - R): the distance to the union of all leaf balls, exactly what the
+ * search of ub_ifs_distance bounds from below, in depth x map_count distances for all lanes at once
+ * instead of a search per lane in double. Float rounding moves it by about 1e-6 of the ball's
+ * radius (tests/native/test_ifs.py). */
+static inline void de_ifs_mirror(const ub_object *o, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+                                 ub_de_extra *ex)
+{
+    const int m = o->map_count;
+    const vf inverse = v_set1(o->mirror_inverse);
+    vf address = v_set1(0.0f);
+    float scale = 1.0f, span = 1.0f;
+    for (int level = 0; level < o->ifs_depth; level++) {
+        vf nearest2 = v_set1(INFINITY), index = v_set1(0.0f);
+        vf tx = v_set1(o->mirror_offset[0][0]), ty = v_set1(o->mirror_offset[0][1]), tz = v_set1(o->mirror_offset[0][2]);
+        for (int i = 0; i < m; i++) {
+            const float *v = o->mirror_center[i], *t = o->mirror_offset[i];
+            vf dx = v_sub(x, v_set1(v[0])), dy = v_sub(y, v_set1(v[1])), dz = v_sub(z, v_set1(v[2]));
+            vf e2 = v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)));
+            vm closer = v_lt(e2, nearest2); /* ties (and NaN) keep the lower index */
+            nearest2 = v_select(closer, e2, nearest2);
+            index = v_select(closer, v_set1((float)i), index);
+            tx = v_select(closer, v_set1(t[0]), tx);
+            ty = v_select(closer, v_set1(t[1]), ty);
+            tz = v_select(closer, v_set1(t[2]), tz);
+        }
+        span /= (float)m;
+        address = v_fma(index, v_set1(span), address);
+        x = v_mul(v_sub(x, tx), inverse);
+        y = v_mul(v_sub(y, ty), inverse);
+        z = v_mul(v_sub(z, tz), inverse);
+        scale *= o->mirror_ratio;
+    }
+    const float *c = o->mirror_root;
+    vf dx = v_sub(x, v_set1(c[0])), dy = v_sub(y, v_set1(c[1])), dz = v_sub(z, v_set1(c[2]));
+    vf leaf = v_sub(v_sqrt(v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)))), v_set1(o->mirror_radius));
+    *dist = v_mul(leaf, v_set1(scale));
+    /* As the search: a NaN or infinite point (never a hit) settles at depth 0. */
+    vm finite = v_le(v_sub(*dist, *dist), v_set1(0.0f));
+    *iters = v_select(finite, v_set1((float)o->ifs_depth), v_set1(0.0f));
+    if (want & UB_WANT_TRAP)
+        ex->trap = v_select(finite, v_fma(v_set1(0.5f), v_set1(span), address), v_set1(0.0f));
+    if (want & UB_WANT_POTENTIAL)
+        ex->potential = v_set1(0.0f);
+    if (want & UB_WANT_JACOBIAN)
+        ex->normal[0] = ex->normal[1] = ex->normal[2] = v_set1(0.0f);
+}
+
+/* 3-D IFS (section 5.3): the bounding-ball hierarchy of ifs.c, lane by lane in double precision
+ * (mirror-symmetric pieces: de_ifs_mirror). The bound is signed (negative inside a leaf ball), so
+ * gradients give the leaves' normals. The escape count is the depth that settled the bound, the
+ * orbit trap the leaf's address. */
 static inline void de_ifs(const ub_de_params *p, vm lanes, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
                                  ub_de_extra *ex)
 {
+    if (p->obj->ifs_mirror) { /* every lane: they run side by side anyway */
+        de_ifs_mirror(p->obj, x, y, z, want, dist, iters, ex);
+        return;
+    }
     float xs[UB_LANES], ys[UB_LANES], zs[UB_LANES], ds[UB_LANES] = {0}, ns[UB_LANES] = {0}, as[UB_LANES] = {0};
     v_store(xs, x);
     v_store(ys, y);

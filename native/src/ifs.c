@@ -56,6 +56,83 @@ static void apply(const double m[3][4], const double p[3], double out[3])
         out[r] = m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3];
 }
 
+/* Mirror-symmetric pieces (the Sierpinski tetrahedron): when the nearest piece is known without a
+ * search. Every map must be the same homothety x -> s x + t_i (0 < s < 1). Then the convex hull of
+ * the attractor A is that of the fixed points f_i (its support function h solves
+ * h(u) = max_i (t_i.u + s h(u)), so h(u) = max_i f_i.u), and the piece A_i = w_i(A) has the hull
+ * of the w_i(f_l). For each pair i, j let P be the plane bisecting v_i = w_i(c) and v_j = w_j(c)
+ * (c the centre, the fixed points' centroid) and n its normal toward v_i. If
+ *   (1) the reflection g through c with normal n permutes the fixed points, it permutes the maps
+ *       (g w_k g^-1 has ratio s and fixed point g(f_k)) and keeps the ball B(c, R), so it permutes
+ *       the leaf balls; and the reflection in P, sigma = w_j g w_i^-1, sends piece i's leaf balls
+ *       onto piece j's;
+ *   (2) the hull of A_i, which holds the centres of piece i's leaf balls (c lies in the hull of
+ *       A), lies on v_i's side of P (touching allowed),
+ * then for p on v_i's side each leaf ball of piece j has its mirror image in piece i with a centre
+ * no farther from p: the nearest leaf ball (in |p - centre| - radius) lies in piece i. Holding for
+ * every pair: it lies in the piece whose v_i is nearest p, and so on down one path, whose leaf ball
+ * gives exactly the distance to the union of all leaf balls, as the full search would. The
+ * tolerances (1e-12 on the matrices, 1e-9 of the radius on positions) admit map sets rounded from
+ * exact ones; the estimate is then off by as little. */
+static int detect_mirror_pieces(ub_object *o)
+{
+    const int m = o->map_count;
+    const double s = o->maps[0][0][0], tol = 1e-9 * o->ifs_radius;
+    if (!(s > 0.0 && s < 1.0))
+        return 0;
+    double fixed[UB_MAX_IFS_MAPS][3];
+    for (int i = 0; i < m; i++) {
+        for (int r = 0; r < 3; r++) {
+            for (int c = 0; c < 3; c++)
+                if (!(fabs(o->maps[i][r][c] - (r == c ? s : 0.0)) <= 1e-12))
+                    return 0;
+            fixed[i][r] = o->maps[i][r][3] / (1.0 - s);
+        }
+    }
+    for (int i = 0; i < m; i++) {
+        for (int j = i + 1; j < m; j++) {
+            const double *vi = o->map_center[i], *vj = o->map_center[j];
+            double len = dist3(vi, vj), n[3], mid[3];
+            if (!(len > tol))
+                return 0; /* two maps alike: nothing to choose between, but no plane either */
+            for (int r = 0; r < 3; r++) {
+                n[r] = (vi[r] - vj[r]) / len;
+                mid[r] = 0.5 * (vi[r] + vj[r]);
+            }
+            for (int k = 0; k < m; k++) {
+                double g[3], side_i[3], image[3], h = 0.0;
+                for (int r = 0; r < 3; r++)
+                    h += (fixed[k][r] - o->ifs_center[r]) * n[r];
+                for (int r = 0; r < 3; r++)
+                    g[r] = fixed[k][r] - 2.0 * h * n[r];
+                int found = 0;
+                for (int l = 0; l < m && !found; l++)
+                    found = dist3(g, fixed[l]) <= tol;
+                if (!found)
+                    return 0; /* (1) */
+                apply(o->maps[i], fixed[k], image);
+                for (int r = 0; r < 3; r++)
+                    side_i[r] = image[r] - mid[r];
+                if (!(side_i[0] * n[0] + side_i[1] * n[1] + side_i[2] * n[2] >= -tol))
+                    return 0; /* (2) */
+            }
+        }
+    }
+    /* What the kernels' descent (estimators.h, de_ifs_mirror) reads, in their precision. */
+    for (int i = 0; i < m; i++) {
+        for (int r = 0; r < 3; r++) {
+            o->mirror_center[i][r] = (float)o->map_center[i][r];
+            o->mirror_offset[i][r] = (float)o->maps[i][r][3];
+        }
+    }
+    for (int r = 0; r < 3; r++)
+        o->mirror_root[r] = (float)o->ifs_center[r];
+    o->mirror_radius = (float)o->ifs_radius;
+    o->mirror_ratio = (float)s;
+    o->mirror_inverse = (float)(1.0 / s);
+    return 1;
+}
+
 const char *ub_ifs_prepare(ub_object *o)
 {
     if (o->map_count < 1)
@@ -96,6 +173,7 @@ const char *ub_ifs_prepare(ub_object *o)
     o->ifs_radius = fmax(radius * (1.0 + 1e-9), 1e-6);
     if (!isfinite(o->ifs_radius) || o->ifs_radius > 1e6)
         return "the IFS attractor is too large (its bounding ball exceeds 1e6 object units)";
+    o->ifs_mirror = detect_mirror_pieces(o);
     return NULL;
 }
 
@@ -135,14 +213,14 @@ double ub_ifs_distance(const ub_object *o, const double p[3], double *address, i
 {
     const int m = o->map_count, max_depth = o->ifs_depth;
     const double R = o->ifs_radius;
-    ifs_entry stack[UB_MAX_IFS_DEPTH * (UB_MAX_IFS_MAPS - 1) + 2];
-    ifs_level levels[UB_MAX_IFS_DEPTH + 1];
-    int sp = 0;
     *address = 0.0;
     *depth = 0;
     double d0 = dist3(p, o->ifs_center);
     if (!isfinite(d0))
         return d0; /* NaN: never a hit, and the marcher's step falls back to its maximum */
+    ifs_entry stack[UB_MAX_IFS_DEPTH * (UB_MAX_IFS_MAPS - 1) + 2];
+    ifs_level levels[UB_MAX_IFS_DEPTH + 1];
+    int sp = 0;
     stack[sp++] = (ifs_entry){d0 - R, 0.0, -1, 0};
     int splits = 0;
     double upper = d0 + R;    /* the attractor has a point within this distance */

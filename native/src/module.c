@@ -938,8 +938,9 @@ static PyObject *py_describe(PyObject *self, PyObject *args)
     if (!parse_object(obj_o, "object", o)) {
         const double(*b)[3] = o->slice_basis;
         double world_radius = o->bound_radius > 0.0 ? o->bound_radius * o->sigma_max : o->bound_radius;
-        result = Py_BuildValue("{s:s,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}",
+        result = Py_BuildValue("{s:s,s:O,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}",
                                "kind", ub_kind_names[o->kind], "exact", o->exact ? Py_True : Py_False,
+                               "ifs_mirror", o->kind == UB_KIND_IFS && o->ifs_mirror ? Py_True : Py_False,
                                "step_factor", o->step_factor, "max_step", o->max_step, "bound_center",
                                o->bound_center[0], o->bound_center[1], o->bound_center[2], "bound_radius",
                                o->bound_radius, "world_bound_radius", world_radius, "bailout", o->bailout,

@@ -156,12 +156,19 @@ typedef struct {
     double extent;
     /* IFS: x -> A x + t per map (rows of A | t), the recursion depth, and derived: each map's
      * operator norm (upper bound), a ball (ifs_center, ifs_radius) mapped into itself by every
-     * map, and each map's image of the centre. */
+     * map, and each map's image of the centre. ifs_mirror: the maps are homotheties x -> s x + t
+     * of one ratio whose pieces are pairwise mirror images (ifs.c, detect_mirror_pieces), so the
+     * nearest piece is the one with the nearest image of the centre and the estimate follows one
+     * path down the hierarchy (estimators.h, de_ifs_mirror) instead of a search; mirror_*: the
+     * centre's images, the offsets t, the centre, radius, s and 1 / s in float. */
     int map_count, ifs_depth;
     double maps[UB_MAX_IFS_MAPS][3][4];
     double map_norm[UB_MAX_IFS_MAPS];
     double map_center[UB_MAX_IFS_MAPS][3];
     double ifs_center[3], ifs_radius;
+    int ifs_mirror;
+    float mirror_center[UB_MAX_IFS_MAPS][3], mirror_offset[UB_MAX_IFS_MAPS][3];
+    float mirror_root[3], mirror_radius, mirror_ratio, mirror_inverse;
     /* Mandelbulb and Mandelbox (formulas.h): Julia mode (c = julia_c, else c = the point), the
      * triplex power, and the Mandelbox's scale, fold limit and sphere-fold radii. */
     int julia_mode;

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import estimate, make_camera, pixel_rays, render
+from conftest import HEAVY_SHADING, estimate, make_camera, pixel_rays, render
 from reference import families64 as ref
 
 
@@ -190,3 +190,111 @@ def test_nan_points_have_a_defined_escape_count():
         nan_rows = np.isnan(np.asarray(layout, float)).any(axis=1)
         assert np.isnan(est[nan_rows]).all() and (iters[~nan_rows] > 0).all()
         assert (iters[nan_rows] == 0).all(), iters
+
+
+# -- mirror-symmetric pieces: one path down the hierarchy (ifs.c detect_mirror_pieces) ---------------
+
+def moved(maps, rotation_matrix, offset):
+    """The same system seen through a rigid motion M x = Q x + o: maps M w M^-1."""
+    q, o = np.asarray(rotation_matrix), np.asarray(offset)
+    out = []
+    for m in np.asarray(maps, float):
+        a, t = m[:, :3], m[:, 3]
+        a2 = q @ a @ q.T
+        out.append(np.column_stack([a2, q @ t + o - a2 @ o]).tolist())
+    return out
+
+
+def cantor_pair():
+    """Two maps of ratio 0.3 on a line: the pieces are mirror images in the plane between them."""
+    return [[[0.3, 0, 0, -0.7], [0, 0.3, 0, 0.2], [0, 0, 0.3, 0.1]], [[0.3, 0, 0, 0.7], [0, 0.3, 0, 0.2], [0, 0, 0.3, 0.1]]]
+
+
+MIRROR = {"sierpinski": tetrahedron(),
+          "sierpinski moved": moved(tetrahedron(), rotation(2, 0.7) @ rotation(0, -0.4), (0.3, -0.2, 0.5)),
+          "cantor pair": cantor_pair()}
+
+
+def test_mirror_pieces_are_detected_only_where_they_hold():
+    """The one-path estimate applies to homotheties of one ratio whose pieces are pairwise mirror
+    images (the Sierpinski tetrahedron, also turned and moved; two maps); not where some pair is not
+    (the Menger sponge: two corner cubes are mirror images only through a plane that is no symmetry
+    of the sponge), nor to pieces that overlap, rotations, unequal or mirrored ratios, a vertex
+    moved."""
+    for name, maps in MIRROR.items():
+        assert uc.describe(dict(kind="ifs", maps=maps))["ifs_mirror"], name
+    skewed = tetrahedron()
+    skewed[3][0][3] = 0.4
+    unequal = tetrahedron()
+    unequal[0] = [[0.4, 0, 0, 0.6], [0, 0.4, 0, 0.6], [0, 0, 0.4, 0.6]]
+    flipped = [[[-0.5, 0, 0, x], [0, -0.5, 0, y], [0, 0, -0.5, z]] for x, y, z in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
+    stretched = tetrahedron()
+    stretched[1][2][2] = 0.45
+    # Ratio 0.6: the pieces overlap across the bisecting planes (mirror images, but not each on its
+    # own side), so the nearest v_i no longer marks the nearest piece.
+    overlapping = [[[0.6, 0, 0, 0.4 * x], [0, 0.6, 0, 0.4 * y], [0, 0, 0.6, 0.4 * z]]
+                   for x, y, z in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
+    for name, maps in [("overlapping", overlapping), ("menger", menger()), ("koch", koch()), ("random affine", random_affine()), ("skewed", skewed),
+                       ("unequal ratios", unequal), ("ratio -1/2", flipped), ("stretched", stretched)]:
+        assert not uc.describe(dict(kind="ifs", maps=maps))["ifs_mirror"], name
+    assert not uc.describe(dict(kind="quaternion_julia"))["ifs_mirror"]
+
+
+@pytest.mark.parametrize("name", list(MIRROR))
+def test_mirror_estimate_is_the_leaf_balls_distance_everywhere(name):
+    """Mirror pieces: for a point on v_i's side of the plane bisecting v_i, v_j, every leaf ball
+    of piece j has its mirror image in piece i with a centre no farther, so the nearest leaf ball
+    lies down the path of the nearest v's, and the one-path estimate is the signed distance to the
+    union of all leaf balls, min |p - c| - r over the m^depth balls (float64, enumerated), not only
+    inside them (the search settles early outside): equal up to float32 rounding, at every depth
+    up to the add-on's 7, all around the set and far from it. And never more than the distance to
+    the attractor (chaos game, 20000 points)."""
+    rng = np.random.default_rng(11)
+    system = ref.IFS(MIRROR[name])
+    attractor = system.chaos_game(5000, seed=5)
+    points = np.concatenate([query_points(system, rng, 500),
+                             system.center + rng.normal(size=(100, 3)) * 20.0])
+    for depth in range(8):
+        centres, radii = system.leaves(depth)
+        est, iters, pts = estimate(dict(kind="ifs", maps=MIRROR[name], ifs_depth=depth), points)
+        leaf = ref.leaf_distance(pts, centres, radii, chunk=256)
+        # float32: the point as read and about 10 roundings of the path, relative to the ball's size.
+        np.testing.assert_allclose(est, leaf, rtol=2e-6, atol=2e-6 * system.radius, err_msg=f"depth {depth}")
+        assert (iters == depth).all()
+    nearest = ref.leaf_distance(pts, attractor, np.zeros(len(attractor)), chunk=256)
+    assert np.all(est <= nearest + 2e-6 * (system.radius + np.abs(nearest)))
+
+
+def test_mirror_estimate_against_the_general_search():
+    """The same Sierpinski tetrahedron with one map's matrix off by 1e-10 (not a homothety: the
+    general branch and bound): the search's bound lies within its factor 1.875 below the leaf-ball
+    distance, so below the one-path estimate and within that factor of it."""
+    near_copy = tetrahedron()
+    near_copy[0][0][1] = 1e-10
+    assert not uc.describe(dict(kind="ifs", maps=near_copy))["ifs_mirror"]
+    rng = np.random.default_rng(12)
+    points = query_points(ref.IFS(tetrahedron()), rng, 2000)
+    for depth in (3, 7):
+        one_path, _, _ = estimate(dict(kind="ifs", maps=tetrahedron(), ifs_depth=depth), points)
+        search, _, _ = estimate(dict(kind="ifs", maps=near_copy, ifs_depth=depth), points)
+        tol = 2e-5 * (1 + np.abs(one_path))
+        assert np.all(search <= one_path + tol)
+        outside = one_path > 0
+        assert np.all(search[outside] >= one_path[outside] / 1.875 - tol[outside])
+        inside = ~outside
+        np.testing.assert_allclose(search[inside], one_path[inside], atol=2e-5)
+
+
+def test_mirror_estimate_is_bit_identical_for_threads_tiles_and_simd():
+    """The one-path estimate runs in the kernels' vectors: both kernels and any thread count or
+    tile size give the same bytes, with every effect (shadows, AO, reflections, sea, fog, glow)."""
+    cam = make_camera(53, 37, eye=(-1.8, -3.6, 1.6))
+    obj = dict(kind="ifs", maps=tetrahedron(), ifs_depth=6, color_mode="orbit_trap", reflectivity=0.3)
+    ref_passes, ref_stats = render(cam, [obj], threads=1, tile_size=32, shading=HEAVY_SHADING)
+    paths = ["portable"] + (["avx2"] if uc.cpu_info()["avx2_fma"] else [])
+    for threads, tile, simd in [(2, 13, paths[-1]), (7, 1, "portable"), (3, 64, paths[0]), (1, 32, paths[-1])]:
+        out, stats = render(cam, [obj], threads=threads, tile_size=tile, simd=simd, shading=HEAVY_SHADING)
+        for k in ref_passes:
+            assert ref_passes[k].tobytes() == out[k].tobytes(), (k, threads, tile, simd)
+        assert stats["iterations"] == ref_stats["iterations"]
+    assert (ref_passes["alpha"] > 0).mean() > 0.1
