@@ -9,7 +9,9 @@ LAST_STATS, all samples), as medians (min-max), and the median of the per-round 
 quaternion Julia row (CPU time: the steadier figure where other jobs share the cores).
 
     python bench/bench_first_look.py [--repeats 3] [--kinds IFS,QUATERNION_JULIA] [--percentage 100]
-                                     [--dump DIR]
+                                     [--dump DIR] [--extension ZIP]
+
+--extension ZIP installs that build instead of dist/'s (another branch's, for a before/after).
 
 --dump DIR also writes each kind's core call (camera, objects, shading, options) as a pickle,
 DIR/<kind>.pkl, so that the same render can be replayed by the core alone (bench_core's path):
@@ -87,9 +89,10 @@ def main():
     ap.add_argument("--kinds", default="IFS,QUATERNION_JULIA")
     ap.add_argument("--percentage", type=int, default=100)
     ap.add_argument("--dump", default=None)
+    ap.add_argument("--extension", default=None)
     args = ap.parse_args()
     kinds = args.kinds.split(",")
-    name = ensure_extension(prog="bench_first_look")
+    name = ensure_extension(args.extension, prog="bench_first_look")
     mod = type("mod", (), {k: sys.modules[name + "." + k] for k in ("operators", "engine", "export")})
     if args.dump:
         os.makedirs(args.dump, exist_ok=True)

@@ -20,6 +20,18 @@ def test_startup_scene_add_renders_framed_coloured_and_quick(run_bpy):
     assert r["cpu_seconds"] < 8.0, r
 
 
+def test_startup_scene_add_ifs_renders_as_quick(run_bpy):
+    """The default IFS (the Sierpinski tetrahedron at depth 7) the same way: framed, coloured by its
+    maps, and as quick as the Julia set (issue 21: 27 s of CPU before its one-path estimate, 2.5 s
+    after, bench/bench_first_look.py)."""
+    r = run_bpy("first_render.first_render", args={"kind": "IFS"}, timeout=600)
+    print({k: v for k, v in r.items() if k != "_output"})
+    assert r["engine"] == "UNBOUND" and r["samples"] == 4 and r["size"] == [1080, 1920], r
+    # Framed: the tetrahedron fills the frame's height, its holes leave about 13 % of the frame covered.
+    assert r["coverage"] >= 0.10 and r["saturation"] >= 0.25, r
+    assert r["cpu_seconds"] < 8.0, r
+
+
 def test_frame_in_camera_centres_and_fills(run_bpy):
     r = run_bpy("first_render.frame_in_camera_centres")
     assert r["result"] == ["FINISHED"], r

@@ -122,7 +122,8 @@ def ray_entry(origin, direction, centres, radii):
     return np.where(t >= 0, t, np.inf).min(axis=1)
 
 
-@pytest.mark.parametrize("name,depth", [("sierpinski", 4), ("menger", 2), ("koch", 2), ("random affine", 3)])
+@pytest.mark.parametrize("name,depth", [("sierpinski", 4), ("sierpinski", 6), ("menger", 2), ("koch", 2),
+                                        ("random affine", 3)])
 def test_hits_are_the_leaf_balls(name, depth):
     """Rendered with a fixed threshold eps: every ray that enters a leaf ball hits, never beyond
     its entry into the balls, for nearly every ray at its entry into the balls grown by eps
