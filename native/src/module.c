@@ -1171,7 +1171,8 @@ static PyMethodDef methods[] = {
      "ray) the direction is (0, 0, 0) and t_min = t_max = 0"},
     {"describe", py_describe, METH_VARARGS,
      "describe(object) -> derived values: bounding ball (object space, and its radius in the world), effective "
-     "bailout, singular values of the placement, slice after the theta rotation"},
+     "bailout, singular values of the placement, slice after the theta rotation, ifs_mirror (an IFS whose pieces are "
+     "mirror images: its estimate follows one path, no search)"},
     {"cpu_info", py_cpu_info, METH_NOARGS, "cpu_info() -> {'cpus': n, 'avx2_fma': bool}"},
     {"_math_probe", py_math_probe, METH_VARARGS,
      "_math_probe(name, values) -> [float]: private test hook of the core's own exp, log, sin, cos, acos, expf, "
