@@ -340,6 +340,12 @@ static inline void de_ifs_mirror(const ub_object *o, vf x, vf y, vf z, const int
 {
     const int m = o->map_count;
     const vf inverse = v_set1(o->mirror_inverse);
+    const float *c = o->mirror_root;
+    vf rx = v_sub(x, v_set1(c[0])), ry = v_sub(y, v_set1(c[1])), rz = v_sub(z, v_set1(c[2]));
+    vf root = v_sqrt(v_fma(rx, rx, v_fma(ry, ry, v_mul(rz, rz))));
+    /* Beyond 1e6 radii the root ball's distance is the leaf balls' to float precision (within 2e-6
+     * of it), and the path would overflow (detect_mirror_pieces). */
+    vm far = v_gt(root, v_set1(1e6f * o->mirror_radius));
     vf address = v_set1(0.0f);
     float scale = 1.0f, span = 1.0f;
     for (int level = 0; level < o->ifs_depth; level++) {
@@ -363,10 +369,9 @@ static inline void de_ifs_mirror(const ub_object *o, vf x, vf y, vf z, const int
         z = v_mul(v_sub(z, tz), inverse);
         scale *= o->mirror_ratio;
     }
-    const float *c = o->mirror_root;
     vf dx = v_sub(x, v_set1(c[0])), dy = v_sub(y, v_set1(c[1])), dz = v_sub(z, v_set1(c[2]));
     vf leaf = v_sub(v_sqrt(v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)))), v_set1(o->mirror_radius));
-    *dist = v_mul(leaf, v_set1(scale));
+    *dist = v_select(far, v_sub(root, v_set1(o->mirror_radius)), v_mul(leaf, v_set1(scale)));
     /* As the search: a NaN or infinite point (never a hit) settles at depth 0. */
     vm finite = v_le(v_sub(*dist, *dist), v_set1(0.0f));
     *iters = v_select(finite, v_set1((float)o->ifs_depth), v_set1(0.0f));

@@ -78,7 +78,10 @@ static int detect_mirror_pieces(ub_object *o)
 {
     const int m = o->map_count;
     const double s = o->maps[0][0][0], tol = 1e-9 * o->ifs_radius;
-    if (!(s > 0.0 && s < 1.0))
+    /* The path's point grows as 1 / s per level away from the set: in float it must stay far from
+     * overflow (the kernel takes points within 1e6 radii of the centre down the path; farther
+     * ones settle at the root ball, de_ifs_mirror). Steeper systems keep the search. */
+    if (!(s > 0.0 && s < 1.0) || o->ifs_radius * pow(s, -o->ifs_depth) > 1e12)
         return 0;
     double fixed[UB_MAX_IFS_MAPS][3];
     for (int i = 0; i < m; i++) {

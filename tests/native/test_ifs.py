@@ -239,6 +239,15 @@ def test_mirror_pieces_are_detected_only_where_they_hold():
                        ("unequal ratios", unequal), ("ratio -1/2", flipped), ("stretched", stretched)]:
         assert not uc.describe(dict(kind="ifs", maps=maps))["ifs_mirror"], name
     assert not uc.describe(dict(kind="quaternion_julia"))["ifs_mirror"]
+    # Ratio 1/20: mirror pieces, but at depth 16 the path's point would grow by 20^16 (float
+    # overflow): the search. At depth 5, one path.
+    steep = [[[0.05, 0, 0, x], [0, 0.05, 0, y], [0, 0, 0.05, z]] for x, y, z in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
+    assert not uc.describe(dict(kind="ifs", maps=steep, ifs_depth=16))["ifs_mirror"]
+    assert uc.describe(dict(kind="ifs", maps=steep, ifs_depth=5))["ifs_mirror"]
+    # Far points (beyond 1e6 radii) settle at the root ball: finite, within float rounding.
+    far = np.array([[3e8, 1.0, 2.0], [-1e7, 0.0, 0.0]])
+    est, _, pts = estimate(dict(kind="ifs", maps=tetrahedron(), ifs_depth=16), far)
+    np.testing.assert_allclose(est, np.linalg.norm(pts, axis=1) - math.sqrt(3), rtol=1e-6)
 
 
 @pytest.mark.parametrize("name", list(MIRROR))
