@@ -22,7 +22,7 @@ def test_startup_scene_add_renders_framed_coloured_and_quick(run_bpy):
 
 def test_startup_scene_add_ifs_renders_as_quick(run_bpy):
     """The default IFS (the Sierpinski tetrahedron at depth 7) the same way: framed, coloured by its
-    maps, and as quick as the Julia set (issue 21: 27 s of CPU before its one-path estimate, 2.5 s
+    maps, and as quick as the Julia set (issue 21: 24 s of CPU before its one-path estimate, 2.7 s
     after, bench/bench_first_look.py)."""
     r = run_bpy("first_render.first_render", args={"kind": "IFS"}, timeout=600)
     print({k: v for k, v in r.items() if k != "_output"})
