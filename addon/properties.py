@@ -81,9 +81,10 @@ VIEWPORT_DIVISORS = [('1', "Full", "Start at full resolution", 1)] + [
 MU_STEP = 10
 
 SIMD_MODES = [
-    ('AUTO', "Automatic", "AVX2 and FMA where the CPU has them, portable code otherwise", 0),
+    ('AUTO', "Automatic", "The widest kernel the CPU runs: AVX-512, else AVX2 and FMA, else portable code", 0),
     ('AVX2', "AVX2", "Force the AVX2 and FMA kernel", 1),
     ('PORTABLE', "Portable", "Force the portable kernel (same pixels, slower)", 2),
+    ('AVX512', "AVX-512", "Force the AVX-512 kernel (16 rays per packet)", 3),
 ]
 
 

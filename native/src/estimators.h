@@ -514,7 +514,7 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, 
     int method = (int)o->normal_method;
     vf dist, it;
     ub_de_extra x;
-    vm good = m_andnot(lanes, m_from_bits(0xff)); /* lanes with a usable gradient, or none wanted */
+    vm good = m_andnot(lanes, m_from_bits(UB_ALL_LANES)); /* lanes with a usable gradient, or none wanted */
     /* Only the quaternion kinds carry a Jacobian, and the IFS has no potential: the others use
      * the distance gradient. */
     int quaternion = o->kind == UB_KIND_QUATERNION_JULIA || o->kind == UB_KIND_QUATERNION_MANDELBROT;
@@ -544,7 +544,7 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, 
         }
         good = m_or(good, v_gt(v_fma(g[0], g[0], v_fma(g[1], g[1], v_mul(g[2], g[2]))), v_set1(0.0f)));
     }
-    if (m_bits(good) == 0xff)
+    if (m_bits(good) == UB_ALL_LANES)
         return;
     if (!quaternion) {
         /* No analytic fallback for the other kinds: zero, without running their estimator again. */

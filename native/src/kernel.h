@@ -747,7 +747,7 @@ void UB_ENTRY(ub_estimate)(const ub_object *o, const float *xyz, size_t count, f
                 q[k][l] = ql[k];
         }
         vf dist, it;
-        de(&dp, m_from_bits(0xff), v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &dist, &it);
+        de(&dp, m_from_bits(UB_ALL_LANES), v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &dist, &it);
         float db[UB_LANES], ib[UB_LANES];
         v_store(db, dist);
         v_store(ib, it);
@@ -790,7 +790,7 @@ void UB_ENTRY(ub_normals)(const ub_object *o, const float *xyz, const float *t, 
             h[l] = (float)(gradient_step(o, t[i]) / o->sigma_min);
         }
         vf qv[4] = {v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3])}, g[3];
-        object_normal(o, &dp, m_from_bits(0xff), qv, v_load(h), g);
+        object_normal(o, &dp, m_from_bits(UB_ALL_LANES), qv, v_load(h), g);
         float gb[3][UB_LANES];
         for (int a = 0; a < 3; a++)
             v_store(gb[a], g[a]);

@@ -33,7 +33,7 @@ void UB_ENTRY(ub_mesh_attributes)(const ub_object *o, const float *xyz, size_t c
         }
         vf dist, it;
         ub_de_extra x;
-        de_ext(&dp, m_from_bits(0xff), v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), UB_WANT_TRAP, &dist, &it, &x);
+        de_ext(&dp, m_from_bits(UB_ALL_LANES), v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), UB_WANT_TRAP, &dist, &it, &x);
         float db[UB_LANES], ib[UB_LANES], tb[UB_LANES];
         v_store(db, dist);
         v_store(ib, it);

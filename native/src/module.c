@@ -814,18 +814,20 @@ static Py_ssize_t get_points(PyObject *o, Py_buffer *view)
     return view->shape[0];
 }
 
-/* The simd= keyword of estimate() and normals(): -1 with an exception set, else 0/1 (AVX2). */
+/* The simd= keyword of estimate(), normals() and extract_mesh(): -1 with an exception set, else
+ * the resolved kernel (UB_ISA_AVX512, UB_ISA_AVX2 or UB_ISA_PORTABLE). */
 static int get_simd(PyObject *o)
 {
-    int isa = UB_ISA_AUTO, use_avx2;
+    int isa = UB_ISA_AUTO;
+    ub_isa kernel;
     if (o && read_choice(o, "simd", ub_isa_names, &isa))
         return -1;
-    const char *err = ub_resolve_isa((ub_isa)isa, &use_avx2);
+    const char *err = ub_resolve_isa((ub_isa)isa, &kernel);
     if (err) {
         PyErr_SetString(PyExc_ValueError, err);
         return -1;
     }
-    return use_avx2;
+    return (int)kernel;
 }
 
 static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
@@ -837,8 +839,8 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
     ub_object obj;
     if (parse_object(obj_o, "object", &obj))
         return NULL;
-    int avx2 = get_simd(simd_o);
-    if (avx2 < 0)
+    int kernel = get_simd(simd_o);
+    if (kernel < 0)
         return NULL;
     Py_buffer pv, ev, iv;
     Py_ssize_t n = get_points(pts_o, &pv);
@@ -856,7 +858,9 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
     Py_BEGIN_ALLOW_THREADS
     uint64_t fp = ub_fp_enter();
     if (n > 0)
-        (avx2 ? ub_estimate_avx2 : ub_estimate_portable)(&obj, pv.buf, (size_t)n, ev.buf, iv.buf);
+        (kernel == UB_ISA_AVX512 ? ub_estimate_avx512 : kernel == UB_ISA_AVX2 ? ub_estimate_avx2
+                                                                              : ub_estimate_portable)(
+            &obj, pv.buf, (size_t)n, ev.buf, iv.buf);
     ub_fp_leave(fp);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&pv);
@@ -875,11 +879,11 @@ static PyObject *py_normals(PyObject *self, PyObject *args, PyObject *kwargs)
     if (!obj)
         return PyErr_NoMemory();
     PyObject *result = NULL;
-    int avx2, have_p = 0, have_t = 0, have_n = 0;
+    int kernel, have_p = 0, have_t = 0, have_n = 0;
     Py_buffer pv, tv, nv;
     if (parse_object(obj_o, "object", obj))
         goto out;
-    if ((avx2 = get_simd(simd_o)) < 0)
+    if ((kernel = get_simd(simd_o)) < 0)
         goto out;
     Py_ssize_t n = get_points(pts_o, &pv);
     if (n < 0)
@@ -895,7 +899,9 @@ static PyObject *py_normals(PyObject *self, PyObject *args, PyObject *kwargs)
     Py_BEGIN_ALLOW_THREADS
     uint64_t fp = ub_fp_enter();
     if (n > 0)
-        (avx2 ? ub_normals_avx2 : ub_normals_portable)(obj, pv.buf, tv.buf, (size_t)n, nv.buf);
+        (kernel == UB_ISA_AVX512 ? ub_normals_avx512 : kernel == UB_ISA_AVX2 ? ub_normals_avx2
+                                                                            : ub_normals_portable)(
+            obj, pv.buf, tv.buf, (size_t)n, nv.buf);
     ub_fp_leave(fp);
     Py_END_ALLOW_THREADS
     result = Py_None;
@@ -955,7 +961,8 @@ static PyObject *py_describe(PyObject *self, PyObject *args)
 
 static PyObject *py_cpu_info(PyObject *self, PyObject *noargs)
 {
-    return Py_BuildValue("{s:i,s:O}", "cpus", ub_cpu_count(), "avx2_fma", ub_cpu_has_avx2_fma() ? Py_True : Py_False);
+    return Py_BuildValue("{s:i,s:O,s:O}", "cpus", ub_cpu_count(), "avx2_fma", ub_cpu_has_avx2_fma() ? Py_True : Py_False,
+                         "avx512", ub_cpu_has_avx512() ? Py_True : Py_False);
 }
 
 /* _math_probe(name, values) -> list of floats: the core's own elementary functions (ubmath.h)
@@ -1072,8 +1079,8 @@ static PyObject *py_extract_mesh(PyObject *self, PyObject *args, PyObject *kwarg
         PyErr_SetString(PyExc_TypeError, "cancel must have an is_set() method (e.g. threading.Event) or be None");
         return NULL;
     }
-    int avx2 = get_simd(simd_o);
-    if (avx2 < 0)
+    int kernel = get_simd(simd_o);
+    if (kernel < 0)
         return NULL;
     ub_object *obj = PyMem_Calloc(1, sizeof(ub_object));
     if (!obj)
@@ -1087,7 +1094,7 @@ static PyObject *py_extract_mesh(PyObject *self, PyObject *args, PyObject *kwarg
     opt.min_faces = min_faces;
     opt.seed_spacing = seed;
     opt.threads = threads;
-    opt.use_avx2 = avx2;
+    opt.use_avx2 = kernel != UB_ISA_PORTABLE;   /* the mesh's vertex kernels: AVX2 or portable */
     opt.poll_interval = poll;
     poll_state ps = {progress, cancel, NULL, 0, NULL, NULL, NULL};
     if (progress != Py_None || cancel != Py_None) {
@@ -1173,7 +1180,7 @@ static PyMethodDef methods[] = {
      "describe(object) -> derived values: bounding ball (object space, and its radius in the world), effective "
      "bailout, singular values of the placement, slice after the theta rotation, ifs_mirror (an IFS whose pieces are "
      "mirror images: its estimate follows one path, no search)"},
-    {"cpu_info", py_cpu_info, METH_NOARGS, "cpu_info() -> {'cpus': n, 'avx2_fma': bool}"},
+    {"cpu_info", py_cpu_info, METH_NOARGS, "cpu_info() -> {'cpus': n, 'avx2_fma': bool, 'avx512': bool}"},
     {"_math_probe", py_math_probe, METH_VARARGS,
      "_math_probe(name, values) -> [float]: private test hook of the core's own exp, log, sin, cos, acos, expf, "
      "pow, hypot (pairs), fmaf (triples)"},

@@ -29,7 +29,7 @@
 
 const char *const ub_kind_names[] = {"quaternion_julia", "quaternion_mandelbrot", "julia_stack", "cubic_locus",
                                      "ifs", "mandelbulb", "mandelbox", "kifs", "hybrid", NULL};
-const char *const ub_isa_names[] = {"auto", "avx2", "portable", NULL};
+const char *const ub_isa_names[] = {"auto", "avx2", "portable", "avx512", NULL};
 static const char *const threshold_modes[] = {"pixel", "fixed", NULL};
 static const char *const normal_methods[] = {"gradient_distance", "gradient_potential", "zbuffer", "analytic",
                                              NULL};
@@ -208,7 +208,7 @@ static const ub_param render_rows[] = {
            "4 integers (x, y, columns, rows): the part of the image rendered; None: all of it"),
     INTEGER(R, threads, 0, UB_MAX_THREADS, NULL, "render threads (0: one per CPU)"),
     INTEGER(R, tile_size, 1, 4096, D(32), "side of the square tiles handed to threads, pixels"),
-    CHOICE(R, simd, ub_isa_names, NULL, "kernel: AVX2 + FMA where the CPU has them, or portable (same bits)"),
+    CHOICE(R, simd, ub_isa_names, NULL, "kernel: the widest the CPU has (AVX-512, AVX2 + FMA) or one named; portable runs anywhere (all give the same bits)"),
     REAL(R, poll_interval, 1e-4, 1.0, D(0.01), "seconds between progress and cancel polls"),
     VECTOR(R, background, 4, 0.0, 1e6, NULL, 0, "premultiplied RGBA of missed pixels (alpha within [0, 1])"),
     INTEGER(R, stride, 1, 4096, D(1.0), "render the image pixels (x + stride i, y + stride j) of the window only"),

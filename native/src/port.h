@@ -162,6 +162,25 @@ static inline int ub_detect_avx2_fma(void)
 #endif
 }
 
+/* AVX-512F usable: the CPU has it and the OS saves the opmask and ZMM registers (XCR0 bits 5-7
+ * beside XMM and YMM). */
+static inline int ub_detect_avx512(void)
+{
+#if defined(UB_X86_64)
+    if (!ub_detect_avx2_fma())
+        return 0;
+    unsigned a, b, c, d, xcr0_lo, xcr0_hi;
+    __asm__ volatile("xgetbv" : "=a"(xcr0_lo), "=d"(xcr0_hi) : "c"(0));
+    (void)xcr0_hi;
+    if ((xcr0_lo & 0xe6u) != 0xe6u)
+        return 0;
+    __cpuid_count(7, 0, a, b, c, d);
+    return (b >> 16) & 1u; /* AVX512F */
+#else
+    return 0;
+#endif
+}
+
 /* ---- floating-point mode of the kernels --------------------------------------------------- */
 /* Same mode for every kernel call, whatever the caller's: round to nearest, subnormals flushed
  * to zero (inputs and results), exceptions masked. Part of what makes pixels independent of the

@@ -1,6 +1,7 @@
 /* Tiles of the film handed to a pool of threads; the calling thread polls progress/cancel. */
 #include "render.h"
 
+#include "params.h"
 #include "port.h"
 
 #include <stdlib.h>
@@ -11,11 +12,35 @@ int ub_cpu_has_avx2_fma(void)
     return ub_detect_avx2_fma();
 }
 
-const char *ub_resolve_isa(ub_isa isa, int *use_avx2)
+int ub_cpu_has_avx512(void)
 {
-    int has = ub_cpu_has_avx2_fma();
-    *use_avx2 = isa == UB_ISA_AVX2 || (isa == UB_ISA_AUTO && has);
-    return isa == UB_ISA_AVX2 && !has ? "simd='avx2' requested but this CPU lacks AVX2/FMA" : NULL;
+    return ub_detect_avx512();
+}
+
+const char *ub_resolve_isa(ub_isa isa, ub_isa *kernel)
+{
+    int avx2 = ub_cpu_has_avx2_fma(), avx512 = avx2 && ub_cpu_has_avx512();
+    switch (isa) {
+    case UB_ISA_AVX512:
+        *kernel = UB_ISA_AVX512;
+        return avx512 ? NULL : "simd='avx512' requested but this CPU lacks AVX-512F";
+    case UB_ISA_AVX2:
+        *kernel = UB_ISA_AVX2;
+        return avx2 ? NULL : "simd='avx2' requested but this CPU lacks AVX2/FMA";
+    case UB_ISA_PORTABLE:
+        *kernel = UB_ISA_PORTABLE;
+        return NULL;
+    default:
+        *kernel = avx512 ? UB_ISA_AVX512 : avx2 ? UB_ISA_AVX2 : UB_ISA_PORTABLE;
+        return NULL;
+    }
+}
+
+ub_tile_kernel ub_tile_kernel_of(ub_isa kernel)
+{
+    return kernel == UB_ISA_AVX512 ? ub_render_tile_avx512
+         : kernel == UB_ISA_AVX2   ? ub_render_tile_avx2
+                                   : ub_render_tile_portable;
 }
 
 uint64_t ub_fp_enter(void)
@@ -165,8 +190,8 @@ static int run_job(ub_job *job, const ub_render_options *opt, int threads, ub_wo
 const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub_render_stats *stats)
 {
     memset(stats, 0, sizeof *stats);
-    int use_avx2;
-    const char *isa_error = ub_resolve_isa(opt->isa, &use_avx2);
+    ub_isa kernel;
+    const char *isa_error = ub_resolve_isa(opt->isa, &kernel);
     if (isa_error)
         return isa_error;
     const ub_film *film = scene_in->film;
@@ -210,7 +235,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
             ub_job job;
             memset(&job, 0, sizeof job);
             job.scene = &scene;
-            job.kernel = use_avx2 ? ub_render_tile_avx2 : ub_render_tile_portable;
+            job.kernel = ub_tile_kernel_of(kernel);
             job.phase = phase;
             job.sample = s;
             job.width = phase == 0 ? hb.w : film->w;
@@ -230,7 +255,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         stats->counters.out_of_steps += per_thread[i].out_of_steps;
     }
     stats->threads = ran;
-    stats->isa = use_avx2 ? "avx2" : "portable";
+    stats->isa = ub_isa_names[kernel];
     stats->cancelled = __atomic_load_n(scene.cancel, __ATOMIC_RELAXED) != 0;
     free(per_thread);
     free(workers);

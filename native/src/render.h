@@ -4,7 +4,8 @@
 
 #include <stdint.h>
 
-typedef enum { UB_ISA_AUTO = 0, UB_ISA_AVX2, UB_ISA_PORTABLE } ub_isa;
+/* The kernels (ub_isa_names: "auto", "avx2", "portable", "avx512"); every one gives the same bits. */
+typedef enum { UB_ISA_AUTO = 0, UB_ISA_AVX2, UB_ISA_PORTABLE, UB_ISA_AVX512 } ub_isa;
 
 typedef struct {
     int threads;     /* 0: one per CPU */
@@ -30,8 +31,11 @@ typedef struct {
 } ub_render_stats;
 
 int ub_cpu_count(void);
-/* The ISA of `isa` on this CPU (*use_avx2); NULL, or an error message if AVX2 is forced but missing. */
-const char *ub_resolve_isa(ub_isa isa, int *use_avx2);
+/* The kernel that `isa` asks for on this CPU (*kernel: AVX512, AVX2 or PORTABLE; auto takes the
+ * widest the CPU has); NULL, or an error message if a kernel is forced that the CPU lacks. */
+const char *ub_resolve_isa(ub_isa isa, ub_isa *kernel);
+/* The tile kernel of a resolved ISA. */
+ub_tile_kernel ub_tile_kernel_of(ub_isa kernel);
 /* Enter the kernels' floating-point environment on this thread (round to nearest, denormals
  * flushed, exceptions masked); returns the previous one for ub_fp_leave. */
 uint64_t ub_fp_enter(void);

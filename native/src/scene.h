@@ -30,8 +30,12 @@
 /* Depth written for background pixels: the value Cycles writes into its Depth pass for a miss. */
 #define UB_BACKGROUND_DEPTH 1.0e10f
 
-/* Packet width of the marching kernels (8 rays: one AVX2 register of floats). */
+/* Packet width of the marching kernels: 8 rays (one AVX2 register of floats) unless the kernel's
+ * SIMD header set it first (simd_avx512.h: 16). Only the kernels' own headers use it. */
+#ifndef UB_LANES
 #define UB_LANES 8
+#endif
+#define UB_ALL_LANES ((1 << UB_LANES) - 1)
 
 typedef enum { UB_EPSILON_PIXEL = 0, UB_EPSILON_FIXED = 1 } ub_epsilon_mode;
 
@@ -320,21 +324,25 @@ void ub_sample_offset(int sample, double *dx, double *dy);
 typedef void (*ub_tile_kernel)(const ub_scene *scene, int phase, int sample, int tx0, int ty0, int tx1, int ty1,
                                ub_counters *counters);
 
+void ub_render_tile_avx512(const ub_scene *, int, int, int, int, int, int, ub_counters *);
 void ub_render_tile_avx2(const ub_scene *, int, int, int, int, int, int, ub_counters *);
 void ub_render_tile_portable(const ub_scene *, int, int, int, int, int, int, ub_counters *);
 
 /* Normals at object-space points with the object's own method (the Z-buffer method falls back
  * to the distance gradient), for tests: n points xyz, path lengths t (for alpha * t^delta),
  * writes object-space unit normals. */
+void ub_normals_avx512(const ub_object *, const float *, const float *, size_t, float *);
 void ub_normals_avx2(const ub_object *, const float *, const float *, size_t, float *);
 void ub_normals_portable(const ub_object *, const float *, const float *, size_t, float *);
 
 /* Distance estimate and escape count at object-space points (the kernels' own arithmetic),
  * for tests: n points, xyz interleaved; writes estimate (object units) and iterations. */
+void ub_estimate_avx512(const ub_object *, const float *, size_t, float *, float *);
 void ub_estimate_avx2(const ub_object *, const float *, size_t, float *, float *);
 void ub_estimate_portable(const ub_object *, const float *, size_t, float *, float *);
 
 int ub_cpu_has_avx2_fma(void);
+int ub_cpu_has_avx512(void);
 
 /* scene.c / camera.c: derive the precomputed fields; return NULL or an error message. */
 const char *ub_object_prepare(ub_object *obj, double theta, const double slice_basis[4][3],

@@ -65,7 +65,7 @@ static void sea_normal(const ub_scene *sc, const ub_de_params *dps, const double
             pts[1][l] = p[1][l] + (s == 2 ? e : (s == 3 ? -e : 0.0));
             pts[2][l] = sh->sea_height;
         }
-        v_store(w[s], scene_distance(sc, dps, m_from_bits(0xff), pts));
+        v_store(w[s], scene_distance(sc, dps, m_from_bits(UB_ALL_LANES), pts));
     }
     for (int l = 0; l < UB_LANES; l++) {
         double k = 2.0 * M_PI / sh->sea_wavelength, a = sh->sea_amplitude;

@@ -24,6 +24,12 @@ TIMING_UNRELIABLE = SANITIZED or EMULATED
 # Run on another platform's Python (tools/foreign.py: wine or qemu).
 FOREIGN = bool(os.environ.get("UNBOUND_FOREIGN"))
 
+import unbound_core as uc  # noqa: E402  (the paths above first)
+
+# The kernels this CPU runs, narrowest first: every one must give the same bits (the farm promise).
+KERNELS = ["portable"] + (["avx2"] if uc.cpu_info()["avx2_fma"] else []) + \
+    (["avx512"] if uc.cpu_info()["avx512"] else [])
+
 # Cancel latency (issue 16, defects 2 and 8). The promise: a render stops within CANCEL_BUDGET_S of a
 # cancel on a quiet core. What the tests measure is the work done after the cancel: this process's
 # CPU time from the cancel to render() returning (every render thread's, summed: never less than
@@ -61,8 +67,6 @@ def assert_cancel_latencies(latencies, what=""):
     print(text)
     assert max(c for _, c in latencies) <= CANCEL_BUDGET_S, text
     assert max(w for w, _ in latencies) <= CANCEL_WALL_S, text
-
-import unbound_core as uc  # noqa: E402
 
 
 # Every effect at once (two samples, soft shadows from an area and a spot light, two bounces, AO,

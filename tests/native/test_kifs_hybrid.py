@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import HEAVY_SHADING, check_no_passthrough, dense_sampling, estimate, make_camera, render
+from conftest import KERNELS, HEAVY_SHADING, check_no_passthrough, dense_sampling, estimate, make_camera, render
 from reference import kifs64 as ref
 
 MENGER_PLANES = [(1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (1, -1, 0, 0), (1, 0, -1, 0), (0, 1, -1, 0),
@@ -219,11 +219,13 @@ def test_every_pass_both_kernels_bit_identical(name):
     cam = make_camera(37, 29, eye=tuple(1.2 * np.asarray(camera_of(name)["matrix"])[:3, 3]))
     shading = dict(HEAVY_SHADING, use_sea=False)
     a, sa = render(cam, [dict(obj, reflectivity=0.3)], simd="portable", threads=1, shading=shading)
-    b, sb = render(cam, [dict(obj, reflectivity=0.3)], simd="auto", threads=2, tile_size=7, shading=shading)
+    for kernel in KERNELS[1:]:
+        b, sb = render(cam, [dict(obj, reflectivity=0.3)], simd=kernel, threads=2, tile_size=7, shading=shading)
+        for k in a:
+            assert a[k].tobytes() == b[k].tobytes(), (k, kernel)
+        assert sa["iterations"] == sb["iterations"], kernel
     for k in a:
-        assert a[k].tobytes() == b[k].tobytes(), k
         assert np.isfinite(a[k]).all(), k
-    assert sa["iterations"] == sb["iterations"]
     assert 0.05 < a["alpha"].mean() < 0.95
     hit = a["alpha"][..., 0] == 1
     assert (a["iterations"][hit] > 0).any()

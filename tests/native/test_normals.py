@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import make_camera, rays_float64, render, sphere_hits
+from conftest import KERNELS, make_camera, rays_float64, render, sphere_hits
 from reference.qjulia64 import distance_estimate, slice_points
 
 BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32)
@@ -81,17 +81,18 @@ def test_ball_normals_match_exact(method, radius, t):
 
 def test_ball_normals_zbuffer_falls_back_and_simd_agree():
     """normals() has no pixel neighbours: 'zbuffer' is documented to fall back to the distance
-    gradient, so its output is bit-identical to 'gradient_distance'. The AVX2 and portable
-    kernels give the same bits (the core's determinism guarantee)."""
+    gradient, so its output is bit-identical to 'gradient_distance'. The AVX2, AVX-512 and
+    portable kernels give the same bits (the core's determinism guarantee)."""
     pts = (sphere_directions(64, 2) * 1.01).astype(np.float32)
     t = np.full(len(pts), 3.0, np.float32)
     zb = normals(dict(BALL, normal_method="zbuffer"), pts, t)
     gd = normals(dict(BALL, normal_method="gradient_distance"), pts, t)
     assert np.array_equal(zb, gd)
-    if uc.cpu_info()["avx2_fma"]:
-        for method in GRADIENT_METHODS:
-            obj = dict(BALL, normal_method=method)
-            assert np.array_equal(normals(obj, pts, t, simd="avx2"), normals(obj, pts, t, simd="portable"))
+    for method in GRADIENT_METHODS:
+        obj = dict(BALL, normal_method=method)
+        portable = normals(obj, pts, t, simd="portable")
+        for kernel in KERNELS[1:]:
+            assert np.array_equal(normals(obj, pts, t, simd=kernel), portable), (method, kernel)
 
 
 # ---------------------------------------------------------------- unit ball, normal pass

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import make_camera, rays_float64, render, sphere_hits
+from conftest import KERNELS, make_camera, rays_float64, render, sphere_hits
 
 BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32)
 ALBEDO = (0.9, 0.6, 0.3)
@@ -288,17 +288,15 @@ def test_samples_keep_data_passes_bit_identical():
 @pytest.mark.parametrize("method", ["gradient_distance", "zbuffer"])
 def test_shaded_render_is_deterministic(method):
     """Every pass of a 4-sample render with a sun, hard shadows, AO, a sea and one reflection bounce
-    is bit-identical across threads 1/2/7, tile sizes 3/13/32 and, where the CPU has AVX2+FMA,
-    the 'avx2' and 'portable' kernels (tolerance: none). zbuffer normals read neighbouring pixels'
+    is bit-identical across threads 1/2/7, tile sizes 3/13/32 and every kernel the CPU runs
+    (portable, AVX2, AVX-512; tolerance: none). zbuffer normals read neighbouring pixels'
     hits across tile edges, so they are covered too."""
     cam = make_camera(64, 48, eye=(0.5, -3.5, 1.5))
     objs = [dict(BALL, color=ALBEDO, normal_method=method, reflectivity=0.3)]
     shading = dict(SAMPLES_SHADING, samples=4, reflection_depth=1, use_sea=True, sea_height=-1.2)
     ref, _ = render(cam, objs, shading=shading, threads=1, tile_size=32)
     runs = [dict(threads=2), dict(threads=7), dict(threads=2, tile_size=3), dict(threads=7, tile_size=13)]
-    if uc.cpu_info()["avx2_fma"]:
-        runs += [dict(simd="avx2", threads=2), dict(simd="portable", threads=2),
-                 dict(simd="portable", threads=7, tile_size=3)]
+    runs += [dict(simd=kernel, threads=2) for kernel in KERNELS] + [dict(simd="portable", threads=7, tile_size=3)]
     for kw in runs:
         other, _ = render(cam, objs, shading=shading, **kw)
         for name in ref:

@@ -1,0 +1,56 @@
+/* 16-lane float vectors on AVX-512F, with lane masks in the mask registers. Every operation is
+ * the exact twin of simd_avx2.h's (IEEE add/mul/div/sqrt and fused multiply-add, correctly
+ * rounded), so the three kernels produce identical bits: each lane's arithmetic is the same, only
+ * the packet is twice as wide. Compile the including file for AVX-512F (kernel_avx512.c). */
+#ifndef UNBOUND_SIMD_AVX512_H
+#define UNBOUND_SIMD_AVX512_H
+#include <immintrin.h>
+#include <stdint.h>
+
+#define UB_LANES 16
+
+typedef __m512 vf;     /* 16 floats */
+typedef __mmask16 vm;  /* 16 lane masks, one bit each */
+
+static inline vf v_set1(float x) { return _mm512_set1_ps(x); }
+static inline vf v_load(const float *p) { return _mm512_loadu_ps(p); }
+static inline void v_store(float *p, vf a) { _mm512_storeu_ps(p, a); }
+static inline vf v_add(vf a, vf b) { return _mm512_add_ps(a, b); }
+static inline vf v_sub(vf a, vf b) { return _mm512_sub_ps(a, b); }
+static inline vf v_mul(vf a, vf b) { return _mm512_mul_ps(a, b); }
+static inline vf v_div(vf a, vf b) { return _mm512_div_ps(a, b); }
+static inline vf v_sqrt(vf a) { return _mm512_sqrt_ps(a); }
+/* a*b + c and a*b - c with a single rounding. */
+static inline vf v_fma(vf a, vf b, vf c) { return _mm512_fmadd_ps(a, b, c); }
+static inline vf v_fms(vf a, vf b, vf c) { return _mm512_fmsub_ps(a, b, c); }
+/* min(a, b) = a < b ? a : b and max(a, b) = a > b ? a : b, NaN-semantics included (as vminps). */
+static inline vf v_min(vf a, vf b) { return _mm512_min_ps(a, b); }
+static inline vf v_max(vf a, vf b) { return _mm512_max_ps(a, b); }
+static inline vm v_lt(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
+static inline vm v_le(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
+static inline vm v_gt(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
+static inline vm m_and(vm a, vm b) { return (vm)(a & b); }
+static inline vm m_or(vm a, vm b) { return (vm)(a | b); }
+static inline vm m_andnot(vm a, vm b) { return (vm)(~a & b); } /* !a & b */
+static inline vm m_false(void) { return 0; }
+static inline int m_bits(vm a) { return (int)a; }
+static inline vm m_from_bits(int bits) { return (vm)bits; }
+/* m ? a : b */
+static inline vf v_select(vm m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, a); }
+/* a + (m ? 1 : 0) */
+static inline vf v_count(vf a, vm m) { return _mm512_mask_add_ps(a, m, a, _mm512_set1_ps(1.0f)); }
+
+/* Split positive normal x into mantissa m in [sqrt(1/2), sqrt(2)) and exponent e: x = m 2^e. */
+static inline void v_frexp_centered(vf x, vf *m, vf *e)
+{
+    __m512i xi = _mm512_castps_si512(x);
+    __m512i ei = _mm512_sub_epi32(_mm512_srli_epi32(xi, 23), _mm512_set1_epi32(127));
+    __m512i mi = _mm512_or_si512(_mm512_and_si512(xi, _mm512_set1_epi32(0x007fffff)), _mm512_set1_epi32(0x3f800000));
+    vf mf = _mm512_castsi512_ps(mi); /* [1, 2) */
+    __mmask16 big = _mm512_cmp_ps_mask(mf, _mm512_set1_ps(1.41421356f), _CMP_GT_OQ);
+    mf = _mm512_mask_mul_ps(mf, big, mf, _mm512_set1_ps(0.5f));
+    ei = _mm512_mask_add_epi32(ei, big, ei, _mm512_set1_epi32(1));
+    *m = mf;
+    *e = _mm512_cvtepi32_ps(ei);
+}
+#endif
