@@ -22,8 +22,13 @@ jitter). Checks, per profile:
   is about one pixel.
 
 The noise of the estimate (per-pixel alpha noise ~ 0.5 / sqrt(samples), averaged over the
-sector's pixels in a bin) moves a crossing by about 0.1 pixel at these sample counts; the
-figures measured are printed (pytest -s) and listed in the report of the change that added this.
+sector's pixels in a bin) moves a crossing by a few hundredths of a pixel at these sample counts
+(Cycles 512, Unbound 256). Measured (printed with pytest -s): ramp widths 11.72 vs Cycles' 11.71 px
+(focus distance), 9.95 vs 9.94 (focus object), 6.78-12.64 vs 6.79-12.58 over the eight sectors of
+the anamorphic pentagon (at most 0.8 % apart), 9.92-10.24 vs 9.91-10.25 for the triangle (0.6 %);
+the 50 % edges within 0.05 px. A disk instead of the pentagon measured 14-17 % wider, a ratio of
+1 instead of 2 up to 89 %, and the triangle turned the other way moves edges by up to 1 px.
+Renders: Unbound ~4 s, Cycles 8-13 s (bpy 4.2, 2 shared cores).
 """
 import math
 
