@@ -433,7 +433,9 @@ static const char *panorama_prepare(ub_camera *cam, const ub_camera_input *in)
 static void lens_prepare(ub_camera *cam, const ub_camera_input *in)
 {
     cam->aperture = in->aperture_size;
-    cam->focus = fmax(in->focus_distance, 1e-5);
+    /* Cycles' least focus distance; and beyond 1e30 the plane in focus is at infinity for any
+     * scene, while the focal point's squared coordinates must stay finite. */
+    cam->focus = fmin(fmax(in->focus_distance, 1e-5), 1e30);
     cam->inv_ratio = 1.0 / in->aperture_ratio;
     cam->blades = in->aperture_blades < 3 ? 0 : in->aperture_blades;
     cam->blade_rotation = in->aperture_rotation;

@@ -152,7 +152,7 @@ static const ub_param camera_rows[] = {
          "(2 f-stop); orthographic: 1 / (2 f-stop)); 0: a pinhole, no depth of field"),
     REAL(CAM, focus_distance, 0.0, HUGE_VAL, D(10.0),
          "depth of field: distance of the plane in focus along the view axis (panoramic: along each ray), "
-         "world units; at least 1e-5, as in Cycles"),
+         "world units; at least 1e-5, as in Cycles (and at most 1e30)"),
     INTEGER(CAM, aperture_blades, 0, 100, NULL, "depth of field: sides of the polygonal aperture; below 3 a disk"),
     REAL(CAM, aperture_rotation, -1e6, 1e6, NULL, "depth of field: rotation of the polygonal aperture, radians"),
     REAL(CAM, aperture_ratio, 1e-3, HUGE_VAL, D(1.0),

@@ -264,6 +264,22 @@ def test_lens_samples_are_stratified_per_pixel_and_differ_between_pixels():
     assert len(starts) == 6
 
 
+@pytest.mark.parametrize("name", CAMERAS)
+def test_extreme_lens_values_give_finite_rays(name):
+    """The table's extremes (a focus distance of 1.7e308, a lens of 1e6, ratios of 1e-3 and 1e300)
+    still give unit directions and finite t ranges."""
+    cam = CAMERAS[name]
+    for focus in (0.0, 1e-5, 1.7e308):
+        for size in (1e-300, 1e6):
+            for ratio in (1e-3, 1e300):
+                keys = dict(cam, aperture_size=size, focus_distance=focus, aperture_ratio=ratio, aperture_blades=7)
+                for uv in UV[:7]:
+                    o, d, t0, t1 = uc.camera_ray(keys, 10.5, 5.5, uv)
+                    if name == "mirrorball" and not any(d):
+                        continue
+                    assert np.isfinite(o + (t0, t1)).all() and abs(np.linalg.norm(d) - 1) < 1e-12, (keys, uv)
+
+
 @pytest.mark.parametrize("keys, message", [
     (dict(aperture_size=-0.1), r"camera\.aperture_size must be in \[0, "),
     (dict(aperture_size=math.nan), r"camera\.aperture_size must be finite"),
