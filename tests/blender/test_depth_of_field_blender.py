@@ -28,7 +28,7 @@ sector's pixels in a bin) moves a crossing by a few hundredths of a pixel at the
 the anamorphic pentagon (at most 0.8 % apart), 9.92-10.24 vs 9.91-10.25 for the triangle (0.6 %);
 the 50 % edges within 0.05 px. A disk instead of the pentagon measured 14-17 % wider, a ratio of
 1 instead of 2 up to 89 %, and the triangle turned the other way moves edges by up to 1 px.
-Renders: Unbound ~4 s, Cycles 8-13 s (bpy 4.2, 2 shared cores).
+Renders: Unbound 2.5-4 s, Cycles 6-13 s (bpy 4.2, 2 shared cores).
 """
 import math
 
