@@ -97,7 +97,40 @@ def camera_dict(depsgraph, cam_ob, matrix, width, height, viewplane=None):
     out = native_camera(matrix, projection, data.type != 'ORTHO', data.clip_start, data.clip_end, width, height)
     if data.type == 'PANO':
         out.update(panorama_keys(data, r, viewplane))
+    out.update(depth_of_field(depsgraph, cam_ob, matrix))
     return out
+
+
+def depth_of_field(depsgraph, cam_ob, matrix):
+    """The core's depth-of-field keys of camera object `cam_ob` (evaluated) placed at `matrix`, as
+    Cycles' blender_camera_from_object makes them: the lens' radius is the focal length in metres
+    over twice the f-stop (orthographic: 1 / (2 f-stop) world units), whatever the scene's unit
+    scale or the sensor; the focus object's distance is along the camera's view axis to its
+    origin (or its bone's, with a focus bone). Depth of field off: a pinhole."""
+    dof = cam_ob.data.dof
+    if not dof.use_dof:
+        return dict(aperture_size=0.0, focus_distance=10.0, aperture_blades=0, aperture_rotation=0.0,
+                    aperture_ratio=1.0)
+    fstop = max(dof.aperture_fstop, 1e-5)
+    focal_length = 1.0 if cam_ob.data.type == 'ORTHO' else cam_ob.data.lens * 1e-3
+    return dict(aperture_size=focal_length / (2.0 * fstop), focus_distance=focus_distance(depsgraph, dof, matrix),
+                aperture_blades=dof.aperture_blades, aperture_rotation=dof.aperture_rotation,
+                aperture_ratio=dof.aperture_ratio)
+
+
+def focus_distance(depsgraph, dof, matrix):
+    """Cycles' blender_camera_focal_distance: the focus distance, or the focus object's (bone's)
+    distance along the view axis of a camera at `matrix` (its scale ignored)."""
+    if dof.focus_object is None:
+        return dof.focus_distance
+    target = dof.focus_object.evaluated_get(depsgraph)
+    target_matrix = target.matrix_world
+    bone = target.pose.bones.get(dof.focus_subtarget) if target.pose and dof.focus_subtarget else None
+    if bone is not None:
+        target_matrix = target_matrix @ bone.matrix
+    m = Matrix(matrix)
+    view_axis = m.col[2].to_3d().normalized()
+    return abs(view_axis.dot(m.col[3].to_3d() - target_matrix.col[3].to_3d()))
 
 
 def panorama_keys(data, render, viewplane=None):

@@ -314,8 +314,8 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
 class UnboundSceneSettings(bpy.types.PropertyGroup):
     tile_size: IntProperty(name="Tile Size", description="Side of the square tiles handed to render threads",
                            default=32, min=1, max=4096, soft_min=4, soft_max=1024)
-    samples: IntProperty(name="Samples", description="Anti-aliasing samples per pixel (stratified, the same "
-                         "on every machine)", default=1, min=1, max=4096, soft_max=64)
+    samples: IntProperty(name="Samples", description="Anti-aliasing (and depth-of-field) samples per pixel "
+                         "(stratified, the same on every machine)", default=1, min=1, max=4096, soft_max=64)
     # Lighting
     axle_light: FloatProperty(name="Axle Light", description="A light at the eye, as in the paper: every "
                               "visible point receives light. 1 lights a white surface facing the eye to 1",

@@ -512,21 +512,24 @@ _EXCLUDE = {"RENDER_PT_eevee_performance", "RENDER_PT_simplify",
             # EEVEE panel that never shows for Unbound. Light probes are not used.
             "DATA_PT_light", "DATA_PT_spot", "DATA_PT_lightprobe", "DATA_PT_lightprobe_visibility",
             "DATA_PT_lightprobe_parallax", "DATA_PT_lightprobe_display", "DATA_PT_context_lightprobe"}
+# Blender's panels Unbound reads although they do not list BLENDER_RENDER (Cycles adds itself too):
+# the camera's depth of field.
+_INCLUDE = {"DATA_PT_camera_dof", "DATA_PT_camera_dof_aperture"}
 _added = []
 
 
 def _builtin_panels():
-    """Blender's panels for BLENDER_RENDER, less the excluded ones and any panel that shares its
-    engine set with an excluded one: the node editor's copies of properties panels (space_node.py's
-    node_panel, e.g. NODE_DATA_PT_light) hold the very same set object, so adding Unbound to the
-    copy would show the excluded original too (two "Light" panels)."""
+    """Blender's panels for BLENDER_RENDER and the included ones, less the excluded ones and any
+    panel that shares its engine set with an excluded one: the node editor's copies of properties
+    panels (space_node.py's node_panel, e.g. NODE_DATA_PT_light) hold the very same set object, so
+    adding Unbound to the copy would show the excluded original too (two "Light" panels)."""
     panels = bpy.types.Panel.__subclasses__()
     excluded_sets = {id(p.COMPAT_ENGINES) for p in panels
                      if p.__name__ in _EXCLUDE and isinstance(getattr(p, "COMPAT_ENGINES", None), set)}
     for panel in panels:
         engines = getattr(panel, "COMPAT_ENGINES", None)
-        if (engines and 'BLENDER_RENDER' in engines and panel.__name__ not in _EXCLUDE
-                and id(engines) not in excluded_sets):
+        wanted = 'BLENDER_RENDER' in engines or panel.__name__ in _INCLUDE if engines else False
+        if wanted and panel.__name__ not in _EXCLUDE and id(engines) not in excluded_sets:
             yield panel
 
 

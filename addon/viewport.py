@@ -98,6 +98,9 @@ def view_part(context, depsgraph):
                                         v3d.render_border_max_x, v3d.render_border_max_y), width, height)
         camera = pano or export.native_camera(matrix, rv3d.window_matrix, rv3d.is_perspective, near, far, width,
                                               height)
+        if rv3d.view_perspective == 'CAMERA' and not pano:
+            # As Cycles: looking through the camera shows its depth of field (other views have none).
+            camera.update(export.depth_of_field(depsgraph, cam_ob, cam_ob.matrix_world))
     except export.RenderError as exc:
         return dict(camera=None, window=None, error=str(exc))
     return dict(camera=camera, window=window, error=None)

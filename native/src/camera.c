@@ -99,14 +99,14 @@ static void unproject(const ub_camera *cam, double nx, double ny, double nz, dou
         out[i] = v[i] / v[3];
 }
 
-/* The projection's ray (perspective or orthographic). */
-static void projection_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
-                           double *t_min, double *t_max)
+/* The projection's ray (perspective or orthographic) in camera space: origin ov, unit direction dv. */
+static void projection_ray_view(const ub_camera *cam, double px, double py, double ov[3], double dv[3],
+                                double *t_min, double *t_max)
 {
     /* Normalised device coordinates of the pixel centre; y = -1 is the bottom row. */
     double nx = 2.0 * px / cam->width - 1.0;
     double ny = 2.0 * py / cam->height - 1.0;
-    double pn[3], pf[3], dv[3], ov[3];
+    double pn[3], pf[3];
     unproject(cam, nx, ny, -1.0, pn); /* on the clip-start plane */
     unproject(cam, nx, ny, 1.0, pf);  /* on the clip-end plane */
     if (!cam->orthographic) {
@@ -131,11 +131,26 @@ static void projection_ray(const ub_camera *cam, double px, double py, double or
         *t_min = s;
         *t_max = pf[2] / dv[2];
     }
+}
+
+/* Camera space -> world: a point ov and a direction dv. */
+static void view_to_world(const ub_camera *cam, const double ov[3], const double dv[3], double origin[3],
+                          double dir[3])
+{
     for (int r = 0; r < 3; r++) {
         const double *row = cam->cam_to_world[r];
         dir[r] = row[0] * dv[0] + row[1] * dv[1] + row[2] * dv[2];
         origin[r] = row[0] * ov[0] + row[1] * ov[1] + row[2] * ov[2] + row[3];
     }
+}
+
+/* The projection's ray (perspective or orthographic) in world space. */
+static void projection_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
+                           double *t_min, double *t_max)
+{
+    double ov[3], dv[3];
+    projection_ray_view(cam, px, py, ov, dv, t_min, t_max);
+    view_to_world(cam, ov, dv, origin, dir);
 }
 
 
@@ -221,11 +236,116 @@ static int panorama_direction(const ub_camera *cam, double u, double v, double d
     }
 }
 
-int ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3], double *t_min,
-                  double *t_max)
+/* Cycles' camera_sample_aperture: the point of the aperture that unit-square point uv picks, in
+ * world units on the lens' plane (x right, y up): a disk by Shirley and Chiu's concentric map,
+ * or a regular polygon (Cycles' regular_polygon_sample: a corner's triangle, then its turn); the
+ * width divided by the anamorphic ratio. Only + - * / sqrt and ubmath's sin and cos. */
+static void aperture_point(const ub_camera *cam, const double uv[2], double out[2])
 {
+    double x, y;
+    if (cam->blades == 0) {
+        double a = 2.0 * uv[0] - 1.0, b = 2.0 * uv[1] - 1.0, r, phi;
+        if (a == 0.0 && b == 0.0) {
+            r = phi = 0.0;
+        } else if (a * a > b * b) {
+            r = a;
+            phi = M_PI_4 * (b / a);
+        } else {
+            r = b;
+            phi = M_PI_2 - M_PI_4 * (a / b);
+        }
+        x = r * ub_cos(phi);
+        y = r * ub_sin(phi);
+    } else {
+        double n = cam->blades, scaled = uv[0] * n;
+        double corner = floor(scaled);
+        if (corner > n - 1.0) /* uv[0] * n can round up to n */
+            corner = n - 1.0;
+        double u = sqrt(scaled - corner), v = uv[1] * u;
+        u = 1.0 - u;
+        double tx = (u + v) * cam->blade_cos, ty = (u - v) * cam->blade_sin;
+        double turn = cam->blade_rotation + corner * (2.0 * M_PI) / n;
+        double c = ub_cos(turn), s = ub_sin(turn);
+        x = c * tx - s * ty;
+        y = s * tx + c * ty;
+    }
+    out[0] = x * cam->inv_ratio * cam->aperture;
+    out[1] = y * cam->aperture;
+}
+
+static void normalize3(double v[3])
+{
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int i = 0; i < 3; i++)
+        v[i] /= l;
+}
+
+/* Camera-space ray (ov, dv) of the projection's camera moved to lens point `at` and aimed at
+ * where the pinhole's ray meets the plane in focus, as Cycles' camera_sample_perspective and
+ * camera_sample_orthographic do. Perspective: the plane at depth `focus`, the t range the
+ * pinhole's (Cycles moves the ray's start by the pinhole ray's clip distance); orthographic: the
+ * pixel's point at `focus` along the axis, the ray starting on the clip-start plane and running
+ * the clip length. */
+static void projection_lens(const ub_camera *cam, const double at[2], double ov[3], double dv[3], double *t_min,
+                            double *t_max)
+{
+    double focal[3];
+    for (int i = 0; i < 3; i++)
+        focal[i] = cam->orthographic ? ov[i] + dv[i] * cam->focus : dv[i] * (cam->focus / -dv[2]);
+    double pinhole_z = dv[2];
+    ov[0] += at[0];
+    ov[1] += at[1];
+    for (int i = 0; i < 3; i++)
+        dv[i] = focal[i] - ov[i];
+    normalize3(dv);
+    if (cam->orthographic) {
+        double length = *t_max - *t_min;
+        *t_min = *t_min * pinhole_z / dv[2];
+        *t_max = *t_min + length;
+    }
+}
+
+/* A panoramic camera's camera-space ray d (unit) moved to lens point `at` (origin o) and aimed
+ * at its point at distance `focus`, as Cycles' camera_sample_panorama does: the lens lies across
+ * the ray, its first axis the panorama's forward axis made perpendicular to the ray. */
+static void panorama_lens(const ub_camera *cam, const double at[2], double o[3], double d[3])
+{
+    const double *a = cam->pano_axis;
+    double along = a[0] * d[0] + a[1] * d[1] + a[2] * d[2];
+    double u[3] = {a[0] - along * d[0], a[1] - along * d[1], a[2] - along * d[2]};
+    if (!(u[0] * u[0] + u[1] * u[1] + u[2] * u[2] > 1e-20)) {
+        /* A ray along the axis (Cycles divides 0 by 0 there): any direction across it will do. */
+        double e[3] = {0.0, 0.0, 0.0};
+        e[fabs(d[1]) < 0.5 ? 1 : 0] = 1.0;
+        along = e[0] * d[0] + e[1] * d[1] + e[2] * d[2];
+        for (int i = 0; i < 3; i++)
+            u[i] = e[i] - along * d[i];
+    }
+    normalize3(u);
+    double v[3] = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
+    for (int i = 0; i < 3; i++) {
+        o[i] = u[i] * at[0] + v[i] * cam->pano_handedness * at[1];
+        d[i] = d[i] * cam->focus - o[i];
+    }
+    normalize3(d);
+}
+
+int ub_camera_ray(const ub_camera *cam, double px, double py, const double lens[2], double origin[3],
+                  double dir[3], double *t_min, double *t_max)
+{
+    double at[2];
+    int thin_lens = lens && cam->aperture > 0.0;
+    if (thin_lens)
+        aperture_point(cam, lens, at);
     if (cam->panorama == UB_PANORAMA_NONE) {
-        projection_ray(cam, px, py, origin, dir, t_min, t_max);
+        if (!thin_lens) {
+            projection_ray(cam, px, py, origin, dir, t_min, t_max);
+            return 1;
+        }
+        double ov[3], dv[3];
+        projection_ray_view(cam, px, py, ov, dv, t_min, t_max);
+        projection_lens(cam, at, ov, dv, t_min, t_max);
+        view_to_world(cam, ov, dv, origin, dir);
         return 1;
     }
     const double *vp = cam->viewplane;
@@ -240,9 +360,17 @@ int ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], 
         return 0;
     }
     double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    for (int r = 0; r < 3; r++) {
-        const double *row = cam->cam_to_world[r];
-        dir[r] = (row[0] * d[0] + row[1] * d[1] + row[2] * d[2]) / len;
+    if (thin_lens) {
+        double o[3];
+        for (int i = 0; i < 3; i++)
+            d[i] /= len;
+        panorama_lens(cam, at, o, d);
+        view_to_world(cam, o, d, origin, dir);
+    } else {
+        for (int r = 0; r < 3; r++) {
+            const double *row = cam->cam_to_world[r];
+            dir[r] = (row[0] * d[0] + row[1] * d[1] + row[2] * d[2]) / len;
+        }
     }
     /* Cycles starts a panoramic ray at the clip start along it and ends it at the clip end. */
     *t_min = cam->near;
@@ -301,6 +429,26 @@ static const char *panorama_prepare(ub_camera *cam, const ub_camera_input *in)
     return NULL;
 }
 
+/* The thin lens' constants, as Cycles' Camera::update makes them. */
+static void lens_prepare(ub_camera *cam, const ub_camera_input *in)
+{
+    cam->aperture = in->aperture_size;
+    /* Cycles' least focus distance; and beyond 1e30 the plane in focus is at infinity for any
+     * scene, while the focal point's squared coordinates must stay finite. */
+    cam->focus = fmin(fmax(in->focus_distance, 1e-5), 1e30);
+    cam->inv_ratio = 1.0 / in->aperture_ratio;
+    cam->blades = in->aperture_blades < 3 ? 0 : in->aperture_blades;
+    cam->blade_rotation = in->aperture_rotation;
+    cam->blade_cos = cam->blades ? ub_cos(M_PI / cam->blades) : 0.0;
+    cam->blade_sin = cam->blades ? ub_sin(M_PI / cam->blades) : 0.0;
+    /* Cycles' panorama space looks along +x; blender_camera_matrix turns it to look along -z
+     * (a turn of determinant +1), the mirror ball's along -y (a reflection, determinant -1). */
+    int mirror = cam->panorama == UB_PANORAMA_MIRRORBALL;
+    cam->pano_axis[0] = mirror ? 1.0 : 0.0;
+    cam->pano_axis[2] = mirror ? 0.0 : -1.0;
+    cam->pano_handedness = mirror ? -1.0 : 1.0;
+}
+
 const char *ub_camera_from_input(ub_camera *cam, const ub_camera_input *in)
 {
     memset(cam, 0, sizeof *cam);
@@ -309,6 +457,8 @@ const char *ub_camera_from_input(ub_camera *cam, const ub_camera_input *in)
     const char *err = ub_camera_prepare(cam, in->matrix, in->projection);
     if (!err && in->panorama_type != UB_PANORAMA_NONE)
         err = panorama_prepare(cam, in);
+    if (!err)
+        lens_prepare(cam, in);
     return err;
 }
 

@@ -39,24 +39,41 @@ static inline int cancelled(const ub_scene *sc)
 #include "march.h"
 #include "shading.h"
 
-/* Camera ray of full-image pixel (px, py) at sub-pixel offset `off` (one anti-aliasing sample);
- * 0 where a panoramic camera sees nothing. */
-static int pixel_ray(const ub_camera *cam, int px, int py, const double off[2], double o[3], double d[3],
+/* One anti-aliasing sample: its index and its sub-pixel offset (the same for every pixel). */
+typedef struct {
+    int index;
+    double off[2];
+} sample_point;
+
+static sample_point sample_point_of(int sample)
+{
+    sample_point sp = {sample, {0.0, 0.0}};
+    ub_sample_offset(sample, &sp.off[0], &sp.off[1]);
+    return sp;
+}
+
+/* Camera ray of full-image pixel (px, py) in sample `sp`: at its sub-pixel offset and, with depth
+ * of field, through the pixel's lens sample; 0 where a panoramic camera sees nothing. */
+static int pixel_ray(const ub_camera *cam, int px, int py, const sample_point *sp, double o[3], double d[3],
                      double *t_min, double *t_max)
 {
-    return ub_camera_ray(cam, px + off[0], py + off[1], o, d, t_min, t_max);
+    double lens[2];
+    if (cam->aperture > 0.0)
+        ub_lens_sample(sp->index, px, py, lens);
+    return ub_camera_ray(cam, px + sp->off[0], py + sp->off[1], cam->aperture > 0.0 ? lens : NULL, o, d, t_min,
+                         t_max);
 }
 
 /* Camera rays of the n pixels (px + step l, py), l < n; padding lanes repeat the last real
  * pixel (their results are discarded). Returns the lanes whose pixel sees the scene: outside a
  * panoramic camera's lens a lane gets the view axis and an empty t range, and is not traced. */
-static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, const double off[2],
+static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, const sample_point *sp,
                          ub_packet_rays *pr)
 {
     int seen = 0;
     for (int l = 0; l < UB_LANES; l++) {
         double o[3], d[3];
-        if (pixel_ray(cam, px + step * (l < n ? l : n - 1), py, off, o, d, &pr->t_min[l], &pr->t_max[l]))
+        if (pixel_ray(cam, px + step * (l < n ? l : n - 1), py, sp, o, d, &pr->t_min[l], &pr->t_max[l]))
             seen |= 1 << l;
         else
             for (int i = 0; i < 3; i++)
@@ -79,15 +96,14 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
         de_params(&sc->objects[k], sc->camera, &dps[k]);
         dps[k].cancel = sc->cancel;
     }
-    double off[2];
-    ub_sample_offset(sample, &off[0], &off[1]);
+    const sample_point sp = sample_point_of(sample);
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
             if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             ub_packet_rays pr;
-            int seen = camera_packet(sc->camera, hb->x0 + hb->step * x, hb->y0 + hb->step * y, hb->step, n, off,
+            int seen = camera_packet(sc->camera, hb->x0 + hb->step * x, hb->y0 + hb->step * y, hb->step, n, &sp,
                                      &pr);
             ub_trace_result tr;
             /* Lanes outside a panoramic camera's lens come back as misses (UB_HIT_NONE). */
@@ -108,7 +124,7 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
 }
 
 /* World position of the hit of buffer pixel (bx, by), or 0 if it is not a hit on `object`. */
-static int buffer_point(const ub_scene *sc, const double off[2], int bx, int by, int object, double p[3],
+static int buffer_point(const ub_scene *sc, const sample_point *sp, int bx, int by, int object, double p[3],
                                float *t)
 {
     const ub_hit_buffer *hb = sc->hits;
@@ -118,7 +134,7 @@ static int buffer_point(const ub_scene *sc, const double off[2], int bx, int by,
     if (h->object != object)
         return 0;
     double o[3], d[3], t0, t1;
-    if (!pixel_ray(sc->camera, hb->x0 + hb->step * bx, hb->y0 + hb->step * by, off, o, d, &t0, &t1))
+    if (!pixel_ray(sc->camera, hb->x0 + hb->step * bx, hb->y0 + hb->step * by, sp, o, d, &t0, &t1))
         return 0;
     for (int i = 0; i < 3; i++)
         p[i] = o[i] + (double)h->t * d[i];
@@ -129,7 +145,7 @@ static int buffer_point(const ub_scene *sc, const double off[2], int bx, int by,
 /* Eq. 12-14 with the neighbours' actual hit points (exact under perspective): the normal of the
  * plane through the hit and its right/up neighbours. Of the two neighbours on an axis, the one
  * nearer in depth on the same object is used, so silhouettes do not bend the normal. */
-static int zbuffer_normal(const ub_scene *sc, const double off[2], int bx, int by, int object, const double p[3],
+static int zbuffer_normal(const ub_scene *sc, const sample_point *sp, int bx, int by, int object, const double p[3],
                                  float t, const double dir[3], double n[3])
 {
     double e[2][3];
@@ -139,8 +155,8 @@ static int zbuffer_normal(const ub_scene *sc, const double off[2], int bx, int b
         for (int side = 1; side >= -1; side -= 2) {
             double q[3];
             float tq;
-            int ok = axis == 0 ? buffer_point(sc, off, bx + side, by, object, q, &tq)
-                               : buffer_point(sc, off, bx, by + side, object, q, &tq);
+            int ok = axis == 0 ? buffer_point(sc, sp, bx + side, by, object, q, &tq)
+                               : buffer_point(sc, sp, bx, by + side, object, q, &tq);
             if (!ok || !(fabs((double)tq - t) < best))
                 continue;
             best = fabs((double)tq - t);
@@ -180,7 +196,7 @@ typedef struct {
 } ub_surface;
 
 /* Normals, colour and trap of the hits in `hit_lanes` of one bounce. */
-static void surface(const ub_scene *sc, const ub_de_params *dps, const double off[2], int bounce, int fx,
+static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int bounce, int fx,
                            int fy, const ub_packet_rays *pr, const ub_trace_result *tr,
                            int hit_lanes, int want_trap, ub_surface *sf)
 {
@@ -234,7 +250,7 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const double of
             if (o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0) {
                 double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, n[3];
                 double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-                if (zbuffer_normal(sc, off, fx + l + hb->apron_x, fy + hb->apron_y, k,
+                if (zbuffer_normal(sc, sp, fx + l + hb->apron_x, fy + hb->apron_y, k,
                                           p, tr->t[l], d, n)) {
                     for (int i = 0; i < 3; i++)
                         nw[i][l] = n[i];
@@ -674,8 +690,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
     const int use_ao = sh->ao_strength > 0.0f
                     && (sh->ambient[0] > 0.0f || sh->ambient[1] > 0.0f || sh->ambient[2] > 0.0f
                         || film->pass[UB_PASS_AO] != NULL);
-    double off[2];
-    ub_sample_offset(sample, &off[0], &off[1]);
+    const sample_point sp = sample_point_of(sample);
 
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
@@ -685,7 +700,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
             ub_packet_rays pr;
             ub_trace_result tr;
             ub_paths ps;
-            int seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, off,
+            int seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, &sp,
                                      &pr);
             start_paths(sc->hits, x, y, n, &tr, &ps);
             int alive = ((1 << n) - 1) & seen;
@@ -703,7 +718,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                 if (!hit_lanes)
                     break;
                 ub_surface sf;
-                surface(sc, dps, off, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
+                surface(sc, dps, &sp, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
                 if (cancelled(sc))
                     return;
                 float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];

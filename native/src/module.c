@@ -919,17 +919,43 @@ out:
 
 static PyObject *py_camera_ray(PyObject *self, PyObject *args)
 {
-    PyObject *cam_o, *x_o, *y_o;
-    if (!PyArg_ParseTuple(args, "OOO", &cam_o, &x_o, &y_o))
+    PyObject *cam_o, *x_o, *y_o, *lens_o = Py_None;
+    if (!PyArg_ParseTuple(args, "OOO|O", &cam_o, &x_o, &y_o, &lens_o))
         return NULL;
     ub_camera cam;
-    double x, y;
+    double x, y, lens[2];
     if (parse_camera(cam_o, &cam) || read_double(x_o, "x", -HUGE_VAL, HUGE_VAL, "", &x)
         || read_double(y_o, "y", -HUGE_VAL, HUGE_VAL, "", &y))
         return NULL;
+    if (lens_o != Py_None) {
+        if (!PySequence_Check(lens_o) || PySequence_Size(lens_o) != 2) {
+            PyErr_Clear();
+            PyErr_SetString(PyExc_TypeError, "lens must be a pair (u, v) in [0, 1] or None");
+            return NULL;
+        }
+        for (int i = 0; i < 2; i++) {
+            PyObject *item = PySequence_GetItem(lens_o, i);
+            int bad = !item || read_double(item, i ? "lens[1]" : "lens[0]", 0.0, 1.0, "", &lens[i]);
+            Py_XDECREF(item);
+            if (bad)
+                return NULL;
+        }
+    }
     double o[3], d[3], t0, t1;
-    ub_camera_ray(&cam, x, y, o, d, &t0, &t1);
+    ub_camera_ray(&cam, x, y, lens_o != Py_None ? lens : NULL, o, d, &t0, &t1);
     return Py_BuildValue("((ddd)(ddd)dd)", o[0], o[1], o[2], d[0], d[1], d[2], t0, t1);
+}
+
+static PyObject *py_lens_sample(PyObject *self, PyObject *args)
+{
+    PyObject *s_o, *x_o, *y_o;
+    int sample, x, y;
+    if (!PyArg_ParseTuple(args, "OOO", &s_o, &x_o, &y_o) || read_int(s_o, "sample", 0, INT_MAX, &sample)
+        || read_int(x_o, "x", INT_MIN, INT_MAX, &x) || read_int(y_o, "y", INT_MIN, INT_MAX, &y))
+        return NULL;
+    double uv[2];
+    ub_lens_sample(sample, x, y, uv);
+    return Py_BuildValue("(dd)", uv[0], uv[1]);
 }
 
 static PyObject *py_describe(PyObject *self, PyObject *args)
@@ -1173,9 +1199,14 @@ static PyMethodDef methods[] = {
      "estimate(object, points, estimate, iterations, *, simd='auto'): distance estimate (object units) and "
      "escape count at object-space points, computed by the marching kernel's own arithmetic"},
     {"camera_ray", py_camera_ray, METH_VARARGS,
-     "camera_ray(camera, x, y) -> (origin, direction, t_min, t_max) of the ray through full-image pixel "
-     "coordinates (x, y); pixel centres are at +0.5. Outside a panoramic camera's lens (where Cycles traces no "
+     "camera_ray(camera, x, y, lens=None) -> (origin, direction, t_min, t_max) of the ray through full-image "
+     "pixel coordinates (x, y); pixel centres are at +0.5. lens: a point (u, v) of the unit square that picks "
+     "the ray's point on the camera's aperture (depth of field, as Cycles' lens sample); None: the pinhole's ray. "
+     "Outside a panoramic camera's lens (where Cycles traces no "
      "ray) the direction is (0, 0, 0) and t_min = t_max = 0"},
+    {"lens_sample", py_lens_sample, METH_VARARGS,
+     "lens_sample(sample, x, y) -> (u, v): the unit-square lens sample render() gives full-image pixel (x, y) in "
+     "anti-aliasing sample `sample` (camera_ray's lens)"},
     {"describe", py_describe, METH_VARARGS,
      "describe(object) -> derived values: bounding ball (object space, and its radius in the world), effective "
      "bailout, singular values of the placement, slice after the theta rotation, ifs_mirror (an IFS whose pieces are "

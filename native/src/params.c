@@ -146,6 +146,17 @@ static const ub_param camera_rows[] = {
     VECTOR(CAM, viewplane, 4, -1e6, 1e6, D(0.0, 1.0, 0.0, 1.0), 0,
            "panoramic: (u at the left edge, u at the right edge, v at the bottom, v at the top) of the "
            "panorama's unit square (Cycles' viewplane: the camera's shift, or a view's part of the camera frame)"),
+    /* Depth of field: Cycles' thin lens (kernel/camera/camera.h), its values as blender/camera.cpp makes them. */
+    REAL(CAM, aperture_size, 0.0, 1e6, NULL,
+         "depth of field: the lens' radius, world units (Cycles' aperture size: focal length in metres / "
+         "(2 f-stop); orthographic: 1 / (2 f-stop)); 0: a pinhole, no depth of field"),
+    REAL(CAM, focus_distance, 0.0, HUGE_VAL, D(10.0),
+         "depth of field: distance of the plane in focus along the view axis (panoramic: along each ray), "
+         "world units; at least 1e-5, as in Cycles (and at most 1e30)"),
+    INTEGER(CAM, aperture_blades, 0, 100, NULL, "depth of field: sides of the polygonal aperture; below 3 a disk"),
+    REAL(CAM, aperture_rotation, -1e6, 1e6, NULL, "depth of field: rotation of the polygonal aperture, radians"),
+    REAL(CAM, aperture_ratio, 1e-3, HUGE_VAL, D(1.0),
+         "depth of field: anamorphic ratio; the aperture's width is divided by it (Cycles' aperture_ratio)"),
 };
 #undef CAM
 const ub_param_section ub_camera_section = {"camera", ROWS(camera_rows), sizeof(ub_camera_input)};

@@ -108,6 +108,8 @@ typedef struct {
     double fisheye_fov, fisheye_lens, sensor_width, sensor_height;
     double latitude_min, latitude_max, longitude_min, longitude_max;
     double viewplane[4];
+    double aperture_size, focus_distance, aperture_rotation, aperture_ratio;
+    int aperture_blades;
 } ub_camera_input;
 
 typedef struct {

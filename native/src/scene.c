@@ -36,6 +36,32 @@ void ub_sample_offset(int sample, double *dx, double *dy)
     *dy = y - floor(y);
 }
 
+/* A 32-bit integer hash (Wellons' lowbias32): every input bit changes about half the output bits. */
+static uint32_t hash32(uint32_t x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+void ub_lens_sample(int sample, int px, int py, double uv[2])
+{
+    /* Halton's next two dimensions (bases 5 and 7; the pixel offset has 2 and 3), so a pixel's
+     * lens samples are stratified at every prefix length; each pixel turns them by its own
+     * Cranley-Patterson shift, a hash of its coordinates, so that neighbours do not look through
+     * the same point of the lens at the same sample (a few samples would show as that many
+     * sharp copies of the image; with the shift, as noise). Integer hashing and exact
+     * fractional parts: the same bits on every platform and thread. */
+    uint32_t h = hash32((uint32_t)px ^ hash32((uint32_t)py + 0x9e3779b9u));
+    uint32_t h2 = hash32(h + 0x632be5abu);
+    double x = radical_inverse(sample, 5) + h * 0x1p-32, y = radical_inverse(sample, 7) + h2 * 0x1p-32;
+    uv[0] = x - floor(x);
+    uv[1] = y - floor(y);
+}
+
 double ub_det3(const double m[3][3])
 {
     return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])

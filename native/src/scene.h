@@ -69,6 +69,16 @@ typedef struct {
     ub_panorama_type panorama;
     double viewplane[4], near, far;
     double range[4], half_fov, lens, sensor[2], sin_quarter_fov;
+    /* Depth of field, Cycles' thin lens: the lens' radius in world units (0: a pinhole), the
+     * distance in focus, 1 / the anamorphic ratio; a polygonal aperture's sides (0: a disk), its
+     * rotation and the cosine and sine of half a side's angle. Panoramic cameras move the lens
+     * across each ray: pano_axis is the panorama's forward axis in camera space (Cycles' x), and
+     * the lens' second axis is cross(ray, first axis) times pano_handedness (the determinant of
+     * the turn Cycles gives panoramic cameras). */
+    double aperture, focus, inv_ratio;
+    int blades;
+    double blade_rotation, blade_cos, blade_sin;
+    double pano_axis[3], pano_handedness;
 } ub_camera;
 
 /* The families of section 5 beside the quaternion Julia sets. Julia sets, Mandelbrot slices and
@@ -317,6 +327,8 @@ typedef struct {
 
 /* Sub-pixel offset of anti-aliasing sample s: Halton (2, 3) shifted so sample 0 is the centre. */
 void ub_sample_offset(int sample, double *dx, double *dy);
+/* Lens sample of anti-aliasing sample s at full-image pixel (px, py), in the unit square. */
+void ub_lens_sample(int sample, int px, int py, double uv[2]);
 
 /* One rectangle rendered by one thread, in packets of UB_LANES pixels along rows.
  * Phase 0 traces camera rays of `sample` into the hit buffer (coordinates relative to it);
@@ -365,9 +377,11 @@ const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
 /* World-space width of one pixel at ray distance t (the smaller side of a non-square pixel). */
 double ub_pixel_footprint(const ub_camera *cam, double t);
 /* Ray through full-image point (px, py) (a pixel's centre is at +0.5): world origin, unit
- * direction, t range. Returns 0 where a panoramic camera sees nothing (outside a fisheye's or the
- * mirror ball's circle: Cycles traces no ray there), with a zero direction and t range. */
-int ub_camera_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
-                  double *t_min, double *t_max);
+ * direction, t range. `lens`: a point of the unit square that picks the ray's point on the
+ * aperture (ub_lens_sample); NULL, or a camera without depth of field: the pinhole's ray.
+ * Returns 0 where a panoramic camera sees nothing (outside a fisheye's or the mirror ball's
+ * circle: Cycles traces no ray there), with a zero direction and t range. */
+int ub_camera_ray(const ub_camera *cam, double px, double py, const double lens[2], double origin[3],
+                  double dir[3], double *t_min, double *t_max);
 
 #endif

@@ -16,6 +16,7 @@ from ._native import (  # noqa: F401
     describe,
     estimate,
     extract_mesh,
+    lens_sample,
     normals,
     render,
 )

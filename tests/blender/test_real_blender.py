@@ -154,7 +154,7 @@ def test_gui_panels_screenshots(user_dir):
 def test_gui_rendered_viewport(user_dir):
     """The 3D viewport in Rendered shading (gui_viewport.py): the fractal is drawn, refined from
     1/8 resolution to full, in the user's perspective view, after a change of mu, in the camera
-    view inside a render border, and in an orthographic view. Each time the viewport's request is
+    view inside a render border (with the camera's depth of field), and in an orthographic view. Each time the viewport's request is
     the one built from the region's view and its final frame equals a direct render of it, bit
     for bit. The screenshot without overlays equals the frame passed through Blender's own colour
     management (AgX), so the viewport draws with Blender's display transform."""
@@ -179,6 +179,11 @@ def test_gui_rendered_viewport(user_dir):
     fw, fh = frame[2] - frame[0], frame[3] - frame[1]
     assert abs(bx - (frame[0] + 0.2 * fw)) <= 1 and abs(bx + bw - (frame[0] + 0.7 * fw)) <= 1, (frame, bx, bw)
     assert abs(by - (frame[1] + 0.25 * fh)) <= 1 and abs(by + bh - (frame[1] + 0.8 * fh)) <= 1, (frame, by, bh)
+    # The camera view shows the camera's depth of field (Cycles' aperture: lens / (2 f-stop)); the
+    # user's own views have none, as in Cycles.
+    expected = next(e for e in log if e.get("step") == "camera_frame")["aperture"]
+    assert steps["camera_border"]["aperture"] == pytest.approx(expected, rel=1e-6), steps["camera_border"]
+    assert all(steps[k]["aperture"] == 0.0 for k in ("rendered", "changed_mu", "ortho")), steps
     rx, ry, rw, rh = steps["rendered"]["region"]
     assert steps["rendered"]["window"] == [0, 0, rw, rh], steps["rendered"]
     shots = {e["shot"]: e for e in log if "shot" in e}

@@ -9,7 +9,7 @@ def test_panels_for_unbound(run_bpy):
     """Render tab: Blender's Color Management panel and its sub-panels, and a Performance panel with
     Threads (Cycles' layout); Light tab (Properties, data): one panel labelled Light; World tab: a
     Surface panel editing the Background node whose Color x Strength the engine reads; the
-    fractal's parameters in the empty's Object Data tab; mu's drag step 10 (0.001 per pixel)."""
+    fractal's parameters in the empty's Object Data tab; the camera's Depth of Field panels; mu's drag step 10 (0.001 per pixel)."""
     r = run_bpy("ui.panels_for_unbound")
     render = {name for name, _, _ in r["render"]}
     assert {"RENDER_PT_color_management", "RENDER_PT_color_management_curves"} <= render, sorted(render)
@@ -20,6 +20,8 @@ def test_panels_for_unbound(run_bpy):
     assert r["world_color"] == pytest.approx([0.1, 0.2, 0.3], abs=1e-6)
     assert r["fractal_context"] == "data"
     assert "UNBOUND_PT_fractal" in {name for name, _, _ in r["data"]}
+    # The camera's Depth of Field panel and its Aperture sub-panel (read as Cycles reads them).
+    assert {"DATA_PT_camera_dof", "DATA_PT_camera_dof_aperture"} <= {name for name, _, _ in r["data"]}, r["data"]
     assert r["mu_step"] == 10 and r["add_mu_step"] == 10
 
 

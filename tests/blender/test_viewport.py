@@ -11,9 +11,10 @@ bpy_scripts/viewport.py."""
 def test_final_level_equals_a_final_render_of_the_same_view(run_bpy):
     """Levels 1/8, 1/4, 1/2, full, then samples 2 and 3: the last frame is the F12 image's
     Combined pass, bit for bit, with shadows, AO, fog and a reflective sea; perspective,
-    orthographic and panoramic (fisheye) cameras."""
+    orthographic and panoramic (fisheye) cameras, and a perspective one with depth of field (the
+    coarse levels' pixels look through the lens points of their place in the full image)."""
     r = run_bpy("viewport.final_level_equals_a_final_render_of_the_same_view")
-    for camera_type in ("PERSP", "ORTHO", "PANO"):
+    for camera_type in ("PERSP", "ORTHO", "PANO", "PERSP_DOF"):
         got = r[camera_type]
         assert got["levels"] == [[8, 1], [4, 1], [2, 1], [1, 1], [1, 2], [1, 3]], got
         assert got["final"] and got["shape"] == [77, 123, 4], got

@@ -66,6 +66,12 @@ def scenes():
                                                                                  spot_size=1.0, spot_blend=0.3)])))
     out["sea-reflections"] = (cam, [dict(julia, reflectivity=0.5)],
                               dict(shading=dict(reflection_depth=3, use_sea=True, sea_height=-0.9, sea_wavelength=0.3, sea_amplitude=0.02, sea_color=(0.1, 0.3, 0.5), sea_reflectivity=0.6)))
+    # Depth of field (issue 19): lens samples per pixel and sample, a turned anamorphic polygon,
+    # the Z-buffer normals' neighbours through their own lens points; an orthographic thin lens.
+    lens = dict(aperture_size=0.12, focus_distance=2.6, aperture_blades=6, aperture_rotation=0.3, aperture_ratio=1.4)
+    out["depth-of-field"] = (dict(cam, **lens), [dict(julia, normal_method="zbuffer")], dict(shading=SOFT_SUN))
+    out["depth-of-field-orthographic"] = (dict(make_camera(56, 40, ortho_height=3.0), aperture_size=0.2,
+                                               focus_distance=3.0), [julia], dict(shading=dict(samples=3)))
     return out
 
 

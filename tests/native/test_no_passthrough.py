@@ -4,8 +4,8 @@ must hit. A refined hit (bisection, the default) must lie at the first sample in
 unrefined hit may land anywhere in the eps-shell, but not beyond the first piece of the object
 that is solidly inside it (d < eps/2 somewhere in the piece): the unbounding-sphere argument
 protects the set, not grazing slivers of its eps-shell, which float32 and float64 also see
-differently. Solid,
-dendritic, disconnected and 4-component mu."""
+differently. Solid, dendritic, disconnected and 4-component mu; two of them also through a thin
+lens (depth of field: rays that start off the eye, across the lens)."""
 import functools
 
 import numpy as np
@@ -37,19 +37,29 @@ def _end_of_first_solid_piece(ts, dist, inside):
 
 
 CAMERA = make_camera(28, 21, eye=(0.5, -2.6, 1.2), fov_y=1.0)
+# Depth of field moves each ray's origin across the lens (up to 0.2 here, in a 2.9 distance):
+# the bounding-ball clipping and the first step must hold for rays that do not start at the eye.
+THIN_LENS = dict(CAMERA, aperture_size=0.2, focus_distance=2.3, aperture_blades=5, aperture_rotation=0.2)
 ITERATIONS = 24
 
 
+def pixel_ray(camera, x, y):
+    """The ray render() traces for pixel (x, y) in its one sample (centre, and lens sample 0)."""
+    lens = uc.lens_sample(0, x, y) if camera.get("aperture_size") else None
+    return uc.camera_ray(camera, x + 0.5, y + 0.5, lens)
+
+
 @functools.cache
-def dense_reference(name):
+def dense_reference(name, camera_name="pinhole"):
     """{(y, x): None (the ray misses the bounding ball) or (origin, t of the first dense sample in
     {d < eps}, t where its first solid piece ends)} for the rays that meet the ball and the set.
     The float64 sampling is the slow part: once per case, for both bisection settings."""
     mu = CASES[name]
     radius = ref.bounding_radius(mu)
+    camera = THIN_LENS if camera_name == "thin_lens" else CAMERA
     found = {}
     for y in range(CAMERA["height"]):
-        origin, direction, t0, t1 = zip(*[uc.camera_ray(CAMERA, x + 0.5, y + 0.5) for x in range(CAMERA["width"])])
+        origin, direction, t0, t1 = zip(*[pixel_ray(camera, x, y) for x in range(CAMERA["width"])])
         for x in range(CAMERA["width"]):
             o, d = np.array(origin[x]), np.array(direction[x])
             b = o @ d
@@ -65,16 +75,17 @@ def dense_reference(name):
     return found
 
 
-@pytest.mark.parametrize("bisection", [0, 10])
-@pytest.mark.parametrize("name", list(CASES))
-def test_native_hit_not_beyond_first_dense_hit(name, bisection):
+@pytest.mark.parametrize("name, bisection, camera_name",
+                         [(name, bisection, "pinhole") for name in CASES for bisection in (0, 10)]
+                         + [("dendrite", 0, "thin_lens"), ("general 4-D", 10, "thin_lens")])
+def test_native_hit_not_beyond_first_dense_hit(name, bisection, camera_name):
     """With refinement off the marching alone is checked; with it on, the refined hit too."""
     obj = dict(mu=CASES[name], max_iterations=ITERATIONS, threshold_mode="fixed", epsilon=EPS,
                bisection_steps=bisection)
-    passes, _ = render(CAMERA, [obj], ["alpha", "position"])
+    passes, _ = render(THIN_LENS if camera_name == "thin_lens" else CAMERA, [obj], ["alpha", "position"])
     worst = []
     ref_hits = agree = solid_hits = 0
-    for (y, x), hit in dense_reference(name).items():
+    for (y, x), hit in dense_reference(name, camera_name).items():
         if hit is None:
             assert passes["alpha"][y, x, 0] == 0
             continue

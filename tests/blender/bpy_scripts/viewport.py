@@ -29,10 +29,13 @@ def combined(exr):
 def final_level_equals_a_final_render_of_the_same_view(S, mod):
     from bl_ext.user_default.unbound import viewport
     results = {}
-    for camera_type in ("PERSP", "ORTHO", "PANO"):
+    for camera_type in ("PERSP", "ORTHO", "PANO", "PERSP_DOF"):
         scene = S.empty_scene(123, 77)
         pano = dict(panorama_type='FISHEYE_EQUIDISTANT', fisheye_fov=3.5) if camera_type == 'PANO' else {}
-        S.add_camera(scene, type=camera_type, ortho_scale=3.0, **pano)
+        cam = S.add_camera(scene, type=camera_type.split("_")[0], ortho_scale=3.0, **pano)
+        if camera_type == "PERSP_DOF":
+            dof = cam.data.dof
+            dof.use_dof, dof.focus_distance, dof.aperture_fstop, dof.aperture_blades = True, 2.0, 0.4, 6
         S.add_fractal(reflectivity=0.3)
         light = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
         scene.collection.objects.link(light)

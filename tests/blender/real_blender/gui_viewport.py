@@ -4,8 +4,8 @@ installed and enabled in the user preferences:
 From timers: adds a fractal, shows its parameters on the Properties editor's Object Data tab, switches
 the 3D viewport to Rendered shading with the Unbound engine, and waits for the refinement to end.
 Then, in turn: the same view without overlays (its screenshot is compared with the frame passed
-through Blender's own colour management), a changed mu, the camera view with a render border,
-and an orthographic view. For each it checks that the viewport's request is the one built from
+through Blender's own colour management), a changed mu, the camera view with a render border
+(and the camera's depth of field), and an orthographic view. For each it checks that the viewport's request is the one built from
 the region's view, and that the final frame equals a direct render of that request, bit for bit.
 Prints `UNBOUND_GUI {json}` lines; screenshots are grabbed from the X screen with ffmpeg."""
 import os
@@ -49,7 +49,7 @@ def check_view(label):
                 shading=req.shading)
     levels = [[d, n] for g, d, n, _, _ in s.log if g == frame.generation]
     first = next(e[3] for e in s.log if e[0] == frame.generation)
-    log(step=label, same_request=req == s._request, drawn=list(s.drawn), final=frame.final, error=frame.error, window=list(req.window),
+    log(step=label, aperture=req.camera.get("aperture_size", 0.0), same_request=req == s._request, drawn=list(s.drawn), final=frame.final, error=frame.error, window=list(req.window),
         region=[win_region.x, win_region.y, win_region.width, win_region.height],
         identical=bool(frame.pixels is not None and np.array_equal(frame.pixels, expected)),
         levels=levels, generation=frame.generation, first_image_s=first, full_s=frame.elapsed,
@@ -151,6 +151,8 @@ def changed_mu():
     scene.render.border_min_y, scene.render.border_max_y = 0.25, 0.8
     space = area('VIEW_3D').spaces.active
     space.overlay.show_overlays = True
+    dof = scene.camera.data.dof  # looking through the camera shows its depth of field, as in Cycles
+    dof.use_dof, dof.focus_distance, dof.aperture_fstop = True, 2.0, 0.5
     space.region_3d.view_perspective = 'CAMERA'
     area('VIEW_3D').tag_redraw()
     wait_final(camera_border)
@@ -162,7 +164,7 @@ def camera_border():
     with bpy.context.temp_override(window=window(), area=view3d, region=region(view3d)):
         frame_rect = mod("viewport").camera_frame(bpy.context.scene, region(view3d), view3d.spaces.active.region_3d,
                                                   bpy.context.scene.camera)
-    log(step="camera_frame", rect=list(frame_rect))
+    log(step="camera_frame", rect=list(frame_rect), aperture=bpy.context.scene.camera.data.lens * 1e-3 / (2 * 0.5))
     check_view("camera_border")
     log(shot="viewport_camera_border.png", rc=grab("viewport_camera_border.png")[0])
     bpy.context.scene.render.use_border = False
