@@ -247,6 +247,10 @@ static void apply_defaults(const ub_param_section *s, void *record)
         case UB_PARAM_CHOICE:
             *(int *)field = (int)p->defaults[0];
             break;
+        case UB_PARAM_STRING:
+            if (p->text_default)
+                snprintf(field, (size_t)p->max + 1, "%s", p->text_default);
+            break;
         case UB_PARAM_LIST:
             *(int *)((char *)record + p->count_offset) = p->default_items;
             memcpy(field, p->defaults, sizeof(double) * p->rows * p->cols * p->default_items);
@@ -304,7 +308,7 @@ static int read_value(PyObject *v, const char *name, const ub_param *p, const ch
     case UB_PARAM_CHOICE:
         return read_choice(v, name, p->choices, (int *)field);
     case UB_PARAM_STRING:
-        return read_string(v, name, field, UB_MAX_NAME);
+        return read_string(v, name, field, (size_t)p->max + 1);
     case UB_PARAM_LIST:
         return read_list(v, name, p, hint, record);
     default:
@@ -832,31 +836,35 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
     PyObject *obj_o, *pts_o, *est_o, *it_o, *simd_o = NULL;
     if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOO|$O", kwlist, &obj_o, &pts_o, &est_o, &it_o, &simd_o))
         return NULL;
-    ub_object obj;
-    if (parse_object(obj_o, "object", &obj))
-        return NULL;
-    int avx2 = get_simd(simd_o);
-    if (avx2 < 0)
-        return NULL;
+    /* On the heap: a zoomed object's reference orbits make the record large. */
+    ub_object *obj = PyMem_Calloc(1, sizeof(ub_object));
+    if (!obj)
+        return PyErr_NoMemory();
     Py_buffer pv, ev, iv;
-    Py_ssize_t n = get_points(pts_o, &pv);
-    if (n < 0)
+    int avx2 = -1;
+    Py_ssize_t n = -1;
+    if (parse_object(obj_o, "object", obj) || (avx2 = get_simd(simd_o)) < 0 || (n = get_points(pts_o, &pv)) < 0) {
+        PyMem_Free(obj);
         return NULL;
+    }
     if (get_float_buffer(est_o, "estimate", n, 0, 0, &ev)) {
         PyBuffer_Release(&pv);
+        PyMem_Free(obj);
         return NULL;
     }
     if (get_float_buffer(it_o, "iterations", n, 0, 0, &iv)) {
         PyBuffer_Release(&pv);
         PyBuffer_Release(&ev);
+        PyMem_Free(obj);
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
     uint64_t fp = ub_fp_enter();
     if (n > 0)
-        (avx2 ? ub_estimate_avx2 : ub_estimate_portable)(&obj, pv.buf, (size_t)n, ev.buf, iv.buf);
+        (avx2 ? ub_estimate_avx2 : ub_estimate_portable)(obj, pv.buf, (size_t)n, ev.buf, iv.buf);
     ub_fp_leave(fp);
     Py_END_ALLOW_THREADS
+    PyMem_Free(obj);
     PyBuffer_Release(&pv);
     PyBuffer_Release(&ev);
     PyBuffer_Release(&iv);
@@ -1212,7 +1220,7 @@ static PyObject *row_default(const ub_param *p)
     case UB_PARAM_CHOICE:
         return PyUnicode_FromString(p->choices[(int)d[0]]);
     case UB_PARAM_STRING:
-        return PyUnicode_FromString("");
+        return PyUnicode_FromString(p->text_default ? p->text_default : "");
     case UB_PARAM_LIST: {
         if (p->flags & UB_PARAM_NONE_OK && !p->default_items)
             Py_RETURN_NONE;
