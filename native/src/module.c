@@ -236,7 +236,7 @@ static void apply_defaults(const ub_param_section *s, void *record)
     for (int i = 0; i < s->count; i++) {
         const ub_param *p = &s->rows[i];
         char *field = (char *)record + p->offset;
-        if (!p->defaults)
+        if (!p->defaults && !p->text_default)
             continue;
         switch (p->type) {
         case UB_PARAM_FLOAT:
@@ -1145,7 +1145,48 @@ static PyObject *py_extract_mesh(PyObject *self, PyObject *args, PyObject *kwarg
     return result;
 }
 
+/* zoom_anchor_move(anchor, zoom, offset, digits=None) -> str: the deep zoom's anchor moved by the
+ * object-space (local) offset, anchor + offset 10^-zoom, in the fixed point of the render's
+ * reference orbit (zoom.c), with `digits` digits after the point (None: ceil(zoom) + 10). */
+static PyObject *py_zoom_anchor_move(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *kwlist[] = {"anchor", "zoom", "offset", "digits", NULL};
+    PyObject *anchor_o, *offset_o, *digits_o = Py_None;
+    double zoom;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OdO|O", kwlist, &anchor_o, &zoom, &offset_o, &digits_o))
+        return NULL;
+    char anchor[UB_MAX_ANCHOR];
+    if (read_string(anchor_o, "anchor", anchor, sizeof anchor))
+        return NULL;
+    if (!(zoom >= 0.0 && zoom <= UB_MAX_ZOOM)) {
+        PyErr_Format(PyExc_ValueError, "zoom must be within [0, %g]", UB_MAX_ZOOM);
+        return NULL;
+    }
+    static const ub_param offset_row = {"offset", UB_PARAM_FLOAT, 0, 1, 3, -1e9, 1e9, NULL, NULL, 0, "", 0, 0, 0, 0,
+                                        0, NULL, NULL};
+    double offset[3];
+    if (read_shaped(offset_o, "offset", &offset_row, "", offset))
+        return NULL;
+    int digits = (int)ceil(zoom) + 10;
+    if (digits_o != Py_None && read_int(digits_o, "digits", 0, 90, &digits))
+        return NULL;
+    char out[3 * 110];
+    const char *err = ub_zoom_anchor_move(anchor, zoom, offset, digits, out, (int)sizeof out);
+    ub_fixed check[3];
+    if (!err)
+        err = ub_anchor_parse(out, check); /* the moved anchor must still be a valid one */
+    if (err) {
+        PyErr_SetString(PyExc_ValueError, err);
+        return NULL;
+    }
+    return PyUnicode_FromString(out);
+}
+
 static PyMethodDef methods[] = {
+    {"zoom_anchor_move", (PyCFunction)(void (*)(void))py_zoom_anchor_move, METH_VARARGS | METH_KEYWORDS,
+     "zoom_anchor_move(anchor, zoom, offset, digits=None) -> str: the deep zoom anchor moved by an object-space "
+     "offset, anchor + offset * 10**-zoom, computed exactly in the core's fixed point and written with digits "
+     "digits after the point (None: ceil(zoom) + 10); the pick operator's new anchor"},
     {"extract_mesh", (PyCFunction)(void (*)(void))py_extract_mesh, METH_VARARGS | METH_KEYWORDS,
      "extract_mesh(object, *, resolution=256, epsilon=0, min_faces=0, seed_spacing=0, threads=0, simd='auto', "
      "progress=None, cancel=None, poll_interval=0.05) -> dict: the closed, manifold surface {estimate = epsilon} "

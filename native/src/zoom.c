@@ -189,8 +189,14 @@ const char *ub_fixed_parse(const char **text, ub_fixed *out)
 
 int ub_fixed_format(const ub_fixed *x, int digits, char *out, int size)
 {
-    ub_fixed m;
+    ub_fixed m, half;
     fx_abs(x, &m);
+    /* Rounded to nearest (half away from zero): add half a unit of the last digit, 5 10^-(digits+1). */
+    memset(&half, 0, sizeof half);
+    half.limb[UNITS] = 5;
+    for (int k = 0; k <= digits; k++)
+        fx_div_small(&half, 10);
+    fx_add(&m, &half, &m);
     uint64_t whole = ((uint64_t)m.limb[0] << 32) | m.limb[1];
     int len = snprintf(out, (size_t)size, "%s%llu", fx_negative(x) && !fx_is_zero(x) ? "-" : "",
                        (unsigned long long)whole);

@@ -71,7 +71,7 @@ typedef struct {
 /* Decimal text <-> fixed point. Parse: "[+-]digits[.digits][e[+-]digits]"; returns NULL or why
  * not. */
 const char *ub_fixed_parse(const char **text, ub_fixed *out);
-/* x with `digits` digits after the point (truncated), trailing zeros dropped; returns the length. */
+/* x with `digits` digits after the point (rounded), trailing zeros dropped; returns the length. */
 int ub_fixed_format(const ub_fixed *x, int digits, char *out, int size);
 void ub_fixed_from_double(double x, ub_fixed *out);
 double ub_fixed_to_double(const ub_fixed *x);

@@ -18,6 +18,7 @@ from ._native import (  # noqa: F401
     extract_mesh,
     normals,
     render,
+    zoom_anchor_move,
 )
 from . import same_bits  # noqa: F401
 from . import mesh  # noqa: F401,E402
