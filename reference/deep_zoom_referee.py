@@ -53,6 +53,26 @@ class Julia:
             return decimal.Decimal(0)
 
 
+class Mandelbrot(Julia):
+    """The quaternion Mandelbrot slice: z0 = c = the point, Milnor's |z'| <- 2|z||z'| + 1, and the
+    estimate |z_n| ln|z_n| / (2 |z_n'|), as native/src/estimators.h (mu unused)."""
+
+    def estimate(self, q):
+        with decimal.localcontext(CONTEXT):
+            c0, c1, c2, c3 = q
+            a, b, c, d = q
+            r2 = a * a + b * b + c * c + d * d
+            dm = decimal.Decimal(1)
+            for _ in range(self.max_iterations):
+                dm = 2 * r2.sqrt() * dm + 1
+                a2 = a + a
+                a, b, c, d = a * a - (b * b + c * c + d * d) + c0, a2 * b + c1, a2 * c + c2, a2 * d + c3
+                r2 = a * a + b * b + c * c + d * d
+                if r2 > self.bail2:
+                    return r2.sqrt() * r2.ln() / (4 * dm)
+            return decimal.Decimal(0)
+
+
 def point(anchor, zoom, u):
     """The fractal's point anchor + u 10^-zoom (anchor: 3 Decimals; u: 3 floats), as a
     quaternion on the 1-i-j slice."""

@@ -128,6 +128,35 @@ def test_referee_agrees_with_the_render(surface, zoom):
     assert max(errors) <= 0.5 * EPSILON
 
 
+@pytest.mark.parametrize("kind, zoom", [("quaternion_julia", 45), ("quaternion_mandelbrot", 20),
+                                        ("quaternion_mandelbrot", 30)])
+def test_estimates_agree_with_the_referee(kind, zoom):
+    """The estimate itself (uc.estimate: the kernels' own path) at points around an anchor on the
+    surface against the referee's exact one: the perturbation, its rebasing onto the critical orbit
+    and the Mandelbrot set's delta_c, to the zoom's last digits."""
+    mandel = kind == "quaternion_mandelbrot"
+    iterations = ref.iterations_for_zoom(BASE_ITERATIONS, zoom)
+    exact_set = (ref.Mandelbrot if mandel else ref.Julia)(MU, iterations)
+    start = np.array([-0.6, 0.7, 0.2]) if mandel else EYE
+    direction = np.array([0.1, -1.0, -0.2]) if mandel else -EYE
+    direction = direction / np.linalg.norm(direction)
+    anchor = ref.surface_anchor(exact_set, start, direction, decimal.Decimal(10) ** -(zoom + 1))
+    text = ref.anchor_text(anchor, zoom + 12)
+    anchor_exact = [decimal.Decimal(v) for v in text.split()]
+    rng = np.random.default_rng(18)
+    points = (rng.uniform(-1.5, 1.5, (24, 3)) - 2.0 * direction).astype(np.float32)
+    obj = dict(kind=kind, mu=MU, max_iterations=BASE_ITERATIONS, zoom=float(zoom), zoom_anchor=text)
+    est = np.zeros(len(points), np.float32)
+    iters = np.zeros(len(points), np.float32)
+    uc.estimate(obj, points, est, iters)
+    scale = decimal.Decimal(10) ** -zoom
+    exact_est = np.array([float(exact_set.estimate(ref.point(anchor_exact, zoom, p)) / scale) for p in points])
+    outside = exact_est > 0
+    assert outside.sum() >= 12
+    np.testing.assert_allclose(est[outside], exact_est[outside], rtol=1e-5)
+    assert np.all(est[~outside] == 0.0)
+
+
 # ------------------------------------------------------------------ the interface
 
 def test_anchor_move_is_exact_decimal():
