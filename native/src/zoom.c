@@ -253,6 +253,8 @@ const char *ub_anchor_parse(const char *text, ub_fixed anchor[3])
 
 /* ------------------------------------------------------------------ reference orbits */
 
+static double norm2_of(const double z[4]) { return z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3] * z[3]; }
+
 /* z <- z^2 + c in the quaternions: (a^2 - |v|^2 + c0, 2 a v + c_v). */
 static void fx_quat_step(ub_fixed z[4], const ub_fixed c[4])
 {
@@ -287,6 +289,55 @@ static int reference_orbit(const ub_fixed z0[4], const ub_fixed c[4], double bai
         if (r2 > bail2 || k + 1 == count)
             return k + 1;
         fx_quat_step(z, c);
+    }
+    return count;
+}
+
+/* The linear map delta -> Z delta + delta Z of one iteration at Z = (a, v) as a 4x4 matrix:
+ * (2(a p - v.w), 2(a w + p v)) for delta = (p, w). */
+static void linear_map(const double z[4], double m[4][4])
+{
+    memset(m, 0, 16 * sizeof(double));
+    m[0][0] = 2.0 * z[0];
+    for (int k = 1; k < 4; k++) {
+        m[0][k] = -2.0 * z[k];
+        m[k][0] = 2.0 * z[k];
+        m[k][k] = 2.0 * z[0];
+    }
+}
+
+/* Bilinear approximation's first row (Julia, from the anchor's orbit): while |delta_j| is below
+ * UB_ZOOM_SKIP_TOLERANCE |Z_j|, delta_{j+1} = L_j delta_j to double's rounding, so K iterations are
+ * one matrix M_K = L_{K-1} ... L_0. |delta_j| <= |M_j|_F |delta_0| (Frobenius: above the operator
+ * norm) gives each entry's radius. Returns the entries filled. */
+static int skip_table(ub_zoom *zm)
+{
+    double m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+    double radius = HUGE_VAL, dr2 = 1.0, trap = norm2_of(zm->ref[0]);
+    int count = 0;
+    for (int j = 0; j + 1 < zm->ref_length; j++) {
+        double frob = 0.0;
+        for (int r = 0; r < 4; r++)
+            for (int c = 0; c < 4; c++)
+                frob += m[r][c] * m[r][c];
+        radius = fmin(radius, UB_ZOOM_SKIP_TOLERANCE * sqrt(norm2_of(zm->ref[j])) / sqrt(frob));
+        double l[4][4], next[4][4];
+        linear_map(zm->ref[j], l);
+        for (int r = 0; r < 4; r++)
+            for (int c = 0; c < 4; c++)
+                next[r][c] = l[r][0] * m[0][c] + l[r][1] * m[1][c] + l[r][2] * m[2][c] + l[r][3] * m[3][c];
+        memcpy(m, next, sizeof m);
+        dr2 *= 4.0 * norm2_of(zm->ref[j]);
+        trap = fmin(trap, norm2_of(zm->ref[j + 1]));
+        if (!(radius > 1e-300) || !(dr2 < 1e300))
+            break; /* nothing more to skip (or about to overflow) */
+        if ((j + 1) % UB_ZOOM_SKIP_STRIDE == 0) {
+            count = (j + 1) / UB_ZOOM_SKIP_STRIDE;
+            memcpy(zm->skip[count].matrix, m, sizeof m);
+            zm->skip[count].radius = radius;
+            zm->skip[count].dr2 = dr2;
+            zm->skip[count].trap = trap;
+        }
     }
     return count;
 }
@@ -342,6 +393,7 @@ const char *ub_zoom_prepare(ub_object *obj, double zoom, const char *anchor_text
         zm->crit_length = zm->ref_length;
         memcpy(zm->crit, zm->ref, sizeof zm->ref);
     }
+    zm->skip_count = julia ? skip_table(zm) : 0;
     /* The bounding ball in local units, cut to UB_ZOOM_VIEW_RADIUS around the anchor. */
     if (obj->bound_radius >= 0.0) {
         double center[3], dist2 = 0.0;
@@ -388,7 +440,6 @@ static void sym_product(const double z[4], const double h[4], double out[4])
         out[k] = 2.0 * (z[0] * h[k] + h[0] * z[k]);
 }
 
-static double norm2(const double z[4]) { return z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3] * z[3]; }
 
 void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_result *res)
 {
@@ -421,14 +472,48 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
     for (int k = 0; k < 4; k++)
         c_full[k] = julia ? zm->mu[k] : z[k];
 
-    double r2 = norm2(z), dr2 = 1.0, dm = 1.0, trap = r2, gscale = 1.0;
+    double r2 = norm2_of(z), dr2 = 1.0, dm = 1.0, trap = r2, gscale = 1.0;
     double j[3][4], add_scale = 1.0;
     if (want & UB_WANT_JACOBIAN)
         for (int a = 0; a < 3; a++)
             for (int k = 0; k < 4; k++)
                 j[a][k] = o->slice_basis[k][a];
     int n = 0;
-    for (int it = 0; it < o->max_iterations; it++) {
+    if (orbit && julia && zm->skip_count > 0) {
+        /* The largest skip whose radius holds this point's delta_0 (radii shrink with K). */
+        double d0 = sqrt(norm2_of(delta));
+        int lo = 0, hi = zm->skip_count;
+        while (lo < hi) {
+            int mid = (lo + hi + 1) / 2;
+            if (zm->skip[mid].radius >= d0)
+                lo = mid;
+            else
+                hi = mid - 1;
+        }
+        int K = lo * UB_ZOOM_SKIP_STRIDE;
+        if (K > 0 && K < o->max_iterations) {
+            const double(*m)[4] = zm->skip[lo].matrix;
+            double nd[4];
+            for (int r = 0; r < 4; r++)
+                nd[r] = m[r][0] * delta[0] + m[r][1] * delta[1] + m[r][2] * delta[2] + m[r][3] * delta[3];
+            memcpy(delta, nd, sizeof delta);
+            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same linear maps */
+                for (int a = 0; a < 3; a++) {
+                    double nj[4];
+                    for (int r = 0; r < 4; r++)
+                        nj[r] = m[r][0] * j[a][0] + m[r][1] * j[a][1] + m[r][2] * j[a][2] + m[r][3] * j[a][3];
+                    memcpy(j[a], nj, sizeof nj);
+                }
+            index = n = K;
+            for (int k = 0; k < 4; k++)
+                z[k] = orbit[index][k] + delta[k];
+            r2 = norm2_of(z);
+            dr2 = zm->skip[lo].dr2;
+            trap = zm->skip[lo].trap;
+            gscale = ldexp(1.0, -K);
+        }
+    }
+    for (int it = n; it < o->max_iterations; it++) {
         if (want & UB_WANT_JACOBIAN) {
             double big = 0.0;
             for (int a = 0; a < 3; a++) {
@@ -438,7 +523,7 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
                     for (int k = 0; k < 4; k++)
                         nj[k] += add_scale * o->slice_basis[k][a];
                 memcpy(j[a], nj, sizeof nj);
-                big = fmax(big, norm2(nj));
+                big = fmax(big, norm2_of(nj));
             }
             if (big > 1e200) { /* only the direction matters */
                 for (int a = 0; a < 3; a++)
@@ -482,7 +567,7 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
             index++;
             for (int k = 0; k < 4; k++)
                 z[k] = orbit[index][k] + delta[k];
-            if (norm2(z) < norm2(delta)) {
+            if (norm2_of(z) < norm2_of(delta)) {
                 /* Glitch: rebase onto the critical orbit, whose entry 0 is the critical point 0
                  * (the Julia reference cannot serve; for the Mandelbrot set it is the anchor's own
                  * orbit from 0, and delta_c stays). */
@@ -497,7 +582,7 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
         } else {
             memcpy(z, delta, sizeof z);
         }
-        double nr2 = norm2(z);
+        double nr2 = norm2_of(z);
         r2 = nr2;
         trap = fmin(trap, nr2);
         gscale *= 0.5;

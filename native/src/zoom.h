@@ -50,6 +50,12 @@ typedef struct {
  * the whole set's bounding ball is 10^zoom local units across, far beyond float32's reach. */
 #define UB_ZOOM_VIEW_RADIUS 64.0
 
+/* Skip table: entries every UB_ZOOM_SKIP_STRIDE iterations; an iteration is linear to within
+ * UB_ZOOM_SKIP_TOLERANCE (relative) when |delta_j| <= that fraction of |Z_j|: the dropped delta^2
+ * is then ~1e-12 of what is kept, far below the estimate's float32 result. */
+#define UB_ZOOM_SKIP_STRIDE 8
+#define UB_ZOOM_SKIP_TOLERANCE 0x1p-40
+
 typedef enum { UB_ZOOM_OFF = 0, UB_ZOOM_DOUBLE, UB_ZOOM_PERTURBATION } ub_zoom_path;
 
 /* What a zoomed object carries (ub_object.zoom). */
@@ -66,6 +72,16 @@ typedef struct {
     int ref_length, crit_length;
     double ref[UB_ZOOM_MAX_ORBIT + 1][4];
     double crit[UB_ZOOM_MAX_ORBIT + 1][4];
+    /* The Julia perturbation's linear start, skipped (zoom.c: skip_table): entry m covers the
+     * first K = m UB_ZOOM_SKIP_STRIDE iterations, valid for |delta_0| <= radius[m]: delta_K =
+     * matrix[m] delta_0, and what the skipped iterations add to the estimate's bookkeeping. */
+    int skip_count;
+    struct {
+        double matrix[4][4];
+        double radius;    /* largest |delta_0| for which the quadratic terms stay below UB_ZOOM_SKIP_TOLERANCE */
+        double dr2;       /* prod 4 |Z_j|^2 over the skipped iterations */
+        double trap;      /* min |Z_j|^2 over j = 0..K */
+    } skip[UB_ZOOM_MAX_ORBIT / 8 + 1];
 } ub_zoom;
 
 /* Decimal text <-> fixed point. Parse: "[+-]digits[.digits][e[+-]digits]"; returns NULL or why
