@@ -81,6 +81,15 @@ def point(anchor, zoom, u):
         return [anchor[k] + exact(u[k]) * scale for k in range(3)] + [decimal.Decimal(0)]
 
 
+def ray_estimate(julia, anchor, zoom, origin, direction, t):
+    """The estimate in local units at origin + t direction (floats; t a float or Decimal)."""
+    with decimal.localcontext(CONTEXT):
+        scale = decimal.Decimal(10) ** (-decimal.Decimal(repr(float(zoom))))
+        t = t if isinstance(t, decimal.Decimal) else exact(t)
+        p = [anchor[k] + (exact(origin[k]) + t * exact(direction[k])) * scale for k in range(3)]
+        return julia.estimate(p + [decimal.Decimal(0)]) / scale
+
+
 def first_hit(julia, anchor, zoom, origin, direction, epsilon, t_max=100.0, max_steps=8000, refine=40,
               step_factor=0.5):
     """The first t along the local ray origin + t direction where the estimate (in local units)
@@ -91,13 +100,8 @@ def first_hit(julia, anchor, zoom, origin, direction, epsilon, t_max=100.0, max_
     just above the surface it can dip below epsilon, rise above it and fall again within a step.
     Half steps (the render takes whole ones) find the first dip where a whole step may pass it."""
     with decimal.localcontext(CONTEXT):
-        scale = decimal.Decimal(10) ** (-decimal.Decimal(repr(float(zoom))))
-        o = [exact(v) for v in origin]
-        dvec = [exact(v) for v in direction]
-
         def local_estimate(t):
-            p = [anchor[k] + (o[k] + t * dvec[k]) * scale for k in range(3)] + [decimal.Decimal(0)]
-            return julia.estimate(p) / scale
+            return ray_estimate(julia, anchor, zoom, origin, direction, t)
 
         t, prev = decimal.Decimal(0), None
         for _ in range(max_steps):
