@@ -609,7 +609,10 @@ def pick_zoom_anchor(ob, origin, direction):
     and the object's origin goes to matrix_world @ u. Returns None or why not."""
     hit = surface_hit(ob, origin, direction)
     if hit is None:
-        return "the ray misses the fractal"
+        # A pick finds the surface to 10^-6 object units (the core's finest fixed threshold is 10^-7):
+        # 6 decades deeper the surface may be out of a zoomed object's 64-unit view.
+        return ("the ray misses the fractal (at depth, pick again within about 6 decades of zoom of the "
+                "last pick)" if ob.unbound.zoom > 0.0 else "the ray misses the fractal")
     u = ob.matrix_world.inverted() @ hit
     props = ob.unbound
     props.zoom_anchor = utils.native().zoom_anchor_move(props.zoom_anchor, props.zoom, tuple(u))

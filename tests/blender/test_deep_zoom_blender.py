@@ -31,3 +31,11 @@ def test_pick_anchor_keeps_the_view(run_bpy):
     assert all(abs(s) <= 1e-10 * abs(m) + 1e-15 for s, m in zip(shift, moved)), (moved, shift)
     # Re-picking at depth refines: the anchor gains digits (zoom + 10 after the point).
     assert len(r["results"][1]["anchor_text"].split()[0]) > 20
+
+
+def test_rendered_viewport_at_zoom_20(run_bpy):
+    """The viewport draws at depth what F12 draws, bit for bit (the same export, the same core)."""
+    r = run_bpy("deep_zoom.viewport_at_depth")
+    assert r["picks"] == [["FINISHED"]] * 3, r
+    assert r["final"] and r["identical"], r
+    assert r["coverage"] > 0.5, r  # the surface fills the view

@@ -57,3 +57,27 @@ def pick_keeps_the_view(S, mod):
                             same_coverage=bool(np.all(alpha_before == alpha_after)),
                             depth_change=float(np.abs(after - before)[both].max()) if both.any() else None))
     S.report(results=results)
+
+
+def viewport_at_depth(S, mod):
+    """The Rendered viewport's last frame of the default Julia set at zoom 20 (anchor picked at the
+    camera's centre at zoom 0, refined at 6 and 12: each pick is within 10^-6 of the surface) against
+    F12's Combined pass of the same view."""
+    from bl_ext.user_default.unbound import viewport
+    from bpy_scripts.viewport import combined, current_request
+    scene = S.empty_scene(48, 36)
+    S.add_camera(scene)
+    ob = S.add_fractal()
+    bpy.context.view_layer.objects.active = ob
+    picks = []
+    for zoom in (0.0, 6.0, 12.0):
+        ob.unbound.zoom = zoom
+        picks.append(list(bpy.ops.object.unbound_pick_zoom_anchor()))
+    ob.unbound.zoom = 20.0
+    session = viewport.Session()
+    session.update(current_request(scene))
+    frame = session.wait(300)
+    session.stop()
+    ref = combined(S.render_to_exr(scene, "deep.exr"))
+    S.report(picks=picks, final=frame.final, identical=bool(np.array_equal(frame.pixels, ref)),
+             coverage=float((ref[..., 3] > 0).mean()), anchor=ob.unbound.zoom_anchor)
