@@ -22,8 +22,8 @@ def precision_warning(core, stats):
     if ratio is None or ratio >= core.PRECISION_LIMIT:
         return None
     return ("a pixel covers %.1e of the fractal's size here, finer than single precision resolves "
-            "(%.0e): expect steps in depth and shading. Zoom out or move the camera back "
-            "(README: Precision)" % (ratio, core.PRECISION_LIMIT))
+            "(%.0e): expect steps in depth and shading. Zoom out or move the camera back, and fly in "
+            "with the fractal's Deep Zoom instead (README: Deep zoom)" % (ratio, core.PRECISION_LIMIT))
 
 
 # A warning when more than this share of a render's camera rays (every sample, every view) ran out of

@@ -197,7 +197,8 @@ def image_window(scene):
 OBJECT_KEYS = ("kind", "mu", "theta", "max_iterations", "bailout", "threshold_mode", "epsilon", "detail",
                "step_factor", "max_step", "max_steps", "bisection_steps", "color", "normal_method", "normal_alpha",
                "normal_delta", "reflectivity", "color_mode", "ramp_scale", "ramp_offset")
-KIND_KEYS = {'JULIA_STACK': ("stack_height",), 'CUBIC_LOCUS': ("cubic_component", "extent"),
+KIND_KEYS = {'QUATERNION_JULIA': ("zoom", "zoom_anchor"), 'QUATERNION_MANDELBROT': ("zoom", "zoom_anchor"),
+             'JULIA_STACK': ("stack_height",), 'CUBIC_LOCUS': ("cubic_component", "extent"),
              'IFS': ("ifs_depth",), 'MANDELBULB': ("power", "julia_mode", "julia_c"),
              'MANDELBOX': ("box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c"),
              'KIFS': ("kifs_scale", "kifs_offset", "kifs_rotation", "kifs_shape", "kifs_size"),

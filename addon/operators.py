@@ -4,6 +4,7 @@ import math
 import os
 
 import bpy
+import numpy as np
 from mathutils import Euler, Matrix, Vector
 from bl_operators.presets import AddPresetBase
 from bl_ui.utils import PresetPanel
@@ -498,7 +499,6 @@ def turn_to_frame(scene, cam_ob, ob, forward):
 def silhouette(scene, ob):
     """The box (x0, y0, x1, y1), in the camera frame's normalised coordinates (-1 .. 1), of what
     the camera sees of `ob`'s set: a MASK_SIZE-pixel render of its depth; None if nothing."""
-    import numpy as np
     r = scene.render
     aspect = (r.resolution_x * r.pixel_aspect_x) / max(r.resolution_y * r.pixel_aspect_y, 1e-9)
     w, h = (MASK_SIZE, max(int(round(MASK_SIZE / aspect)), 8)) if aspect >= 1.0 else \
@@ -574,6 +574,87 @@ class UNBOUND_OT_frame_camera(bpy.types.Operator):
             self.report({'WARNING'}, "Frame in Camera: " + problem)
             return {'CANCELLED'}
         _sync_display_size(context.object)
+        return {'FINISHED'}
+
+
+# -- Deep zoom: the anchor under the mouse -----------------------------------------------------
+
+ZOOM_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT'}
+
+
+def surface_hit(ob, origin, direction):
+    """World point where the world ray (origin, unit direction) first meets fractal object `ob`, by
+    the core at the object's own zoom and anchor (a one-pixel render of its position pass along
+    the ray), or None where the ray misses it."""
+    uc = utils.native()
+    params = export.object_parameters(ob)
+    params["matrix"] = [list(row) for row in ob.matrix_world]
+    # A fixed hit threshold far below the ray's pixel: the point, not a pixel's worth of surface.
+    params["threshold_mode"], params["epsilon"] = 'fixed', 1e-6
+    up = (0.0, 0.0, 1.0) if abs(direction[2]) < 0.9 else (0.0, 1.0, 0.0)
+    target = tuple(o + d for o, d in zip(origin, direction))
+    camera = dict(matrix=uc.look_at(tuple(origin), target, up), projection=uc.perspective(1e-6, 1.0, 1e-6, 1e4),
+                  width=1, height=1)
+    out = {name: np.zeros((1, 1, uc.PASS_CHANNELS[name]), np.float32) for name in ("alpha", "position")}
+    uc.render(camera, [params], out, threads=1)
+    if out["alpha"][0, 0, 0] < 1.0:
+        return None
+    return Vector(out["position"][0, 0].astype(float))
+
+
+def pick_zoom_anchor(ob, origin, direction):
+    """Move the anchor of `ob` to the surface point along the world ray, so that the next zoom dives
+    there, and the object by as much in the world, so that the view does not move: the hit's local
+    point u becomes the new origin, anchor' = anchor + u 10^-zoom (the core's exact decimal sum),
+    and the object's origin goes to matrix_world @ u. Returns None or why not."""
+    hit = surface_hit(ob, origin, direction)
+    if hit is None:
+        # A pick finds the surface to 10^-6 object units (the core's finest fixed threshold is 10^-7):
+        # 6 decades deeper the surface may be out of a zoomed object's 64-unit view.
+        return ("the ray misses the fractal (at depth, pick again within about 6 decades of zoom of the "
+                "last pick)" if ob.unbound.zoom > 0.0 else "the ray misses the fractal")
+    u = ob.matrix_world.inverted() @ hit
+    props = ob.unbound
+    props.zoom_anchor = utils.native().zoom_anchor_move(props.zoom_anchor, props.zoom, tuple(u))
+    ob.matrix_world.translation = ob.matrix_world @ u
+    return None
+
+
+class UNBOUND_OT_pick_zoom_anchor(bpy.types.Operator):
+    """Set the deep zoom's anchor to the fractal's surface under the mouse (from the Properties
+    editor: at the centre of the camera's view), computed at the current zoom, and move the object
+    so that the view does not jump; zooming in then dives into that point"""
+    bl_idname = "object.unbound_pick_zoom_anchor"
+    bl_label = "Pick Anchor"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        ob = context.object
+        return utils.is_fractal(ob) and ob.unbound.kind in ZOOM_KINDS
+
+    def invoke(self, context, event):
+        if context.area is None or context.area.type != 'VIEW_3D' or context.region_data is None:
+            return self.execute(context)
+        from bpy_extras import view3d_utils
+        coord = (event.mouse_region_x, event.mouse_region_y)
+        origin = view3d_utils.region_2d_to_origin_3d(context.region, context.region_data, coord)
+        direction = view3d_utils.region_2d_to_vector_3d(context.region, context.region_data, coord)
+        return self.pick(context, origin, direction.normalized())
+
+    def execute(self, context):
+        cam = context.scene.camera
+        if cam is None:
+            self.report({'WARNING'}, "Pick Anchor: the scene has no camera (or use it in the 3D view, under the mouse)")
+            return {'CANCELLED'}
+        m = cam.matrix_world
+        return self.pick(context, m.translation, (m.to_3x3() @ Vector((0.0, 0.0, -1.0))).normalized())
+
+    def pick(self, context, origin, direction):
+        problem = pick_zoom_anchor(context.object, origin, direction)
+        if problem:
+            self.report({'WARNING'}, "Pick Anchor: " + problem)
+            return {'CANCELLED'}
         return {'FINISHED'}
 
 
@@ -1106,7 +1187,7 @@ classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_frame_camera, UNBOUND_OT_use_engin
            UNBOUND_MT_look_presets, UNBOUND_PT_fractal_presets, UNBOUND_PT_look_presets,
            UNBOUND_OT_fractal_preset_add, UNBOUND_OT_look_preset_add, UNBOUND_OT_color_ramp_add, UNBOUND_OT_ifs_shape, UNBOUND_OT_ifs_map_add,
            UNBOUND_OT_ifs_map_remove, UNBOUND_OT_kifs_shape, UNBOUND_OT_kifs_plane_add, UNBOUND_OT_kifs_plane_remove,
-           UNBOUND_OT_hybrid_step_add, UNBOUND_OT_hybrid_step_remove)
+           UNBOUND_OT_hybrid_step_add, UNBOUND_OT_hybrid_step_remove, UNBOUND_OT_pick_zoom_anchor)
 
 
 def register():

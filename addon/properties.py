@@ -5,7 +5,7 @@ import math
 
 import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
-                       IntProperty, PointerProperty)
+                       IntProperty, PointerProperty, StringProperty)
 
 from . import export, passes, utils
 
@@ -200,6 +200,13 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
     theta: FloatProperty(name="Theta", description="Rotation of the complex Julia set before it is lifted "
                          "into the quaternions (the paper's eq. 5-6)", subtype='ANGLE', default=0.0,
                          soft_min=-2 * math.pi, soft_max=2 * math.pi, min=-1e6, max=1e6)
+    zoom: FloatProperty(name="Zoom", description="Deep zoom: log10 of the magnification. The object's point u is "
+                        "the fractal's Anchor + u 10^-Zoom, so keyframing 0 to 30 flies in at a constant speed in "
+                        "scale; the iterations grow by 7 per unit of zoom", default=0.0, min=0.0, max=60.0,
+                        soft_max=45.0, step=10, precision=3)
+    zoom_anchor: StringProperty(name="Anchor", description="Deep zoom: the point of the fractal's object space at "
+                                "the object's origin, three decimal numbers 'x y z' with as many digits as the "
+                                "zoom needs (Pick Anchor writes it)", default="0 0 0", maxlen=511)
     slice_offset: FloatProperty(name="K Offset", description="Position of the 3-D slice along the fourth (k) axis",
                                 default=0.0, soft_min=-2.0, soft_max=2.0, min=-1000.0, max=1000.0, step=1,
                                 precision=4)

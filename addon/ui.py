@@ -2,6 +2,8 @@
 a camera is), Render tab (engine settings, performance), World tab (the colour Unbound reads),
 Light tab, View Layer tab (passes). Shown only when Unbound is the render engine; under another
 engine a fractal's tabs say how to see it."""
+import math
+
 import bpy
 
 from . import export, operators, passes, properties, utils
@@ -190,6 +192,27 @@ class UNBOUND_PT_fractal_slice(FractalPanel, bpy.types.Panel):
         # "Rotation", not the property's "Slice Rotation": the panel says Slice already, and the longer
         # label is cut to "Slice Ro..." in the Properties editor of a 1366x768 screen.
         layout.column().prop(props, "slice_rotation", text="Rotation")
+
+
+class UNBOUND_PT_fractal_zoom(FractalPanel, bpy.types.Panel):
+    bl_label = "Deep Zoom"
+    bl_parent_id = "UNBOUND_PT_fractal"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.object.unbound.kind in operators.ZOOM_KINDS
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        props = context.object.unbound
+        layout.prop(props, "zoom")
+        layout.prop(props, "zoom_anchor")
+        layout.operator("object.unbound_pick_zoom_anchor", icon='EYEDROPPER')
+        if props.zoom > 0.0:
+            # The core's rule (native/src/zoom.h): what a frame at this zoom iterates.
+            iterations = min(props.max_iterations + math.ceil(7.0 * props.zoom), 1024)
+            layout.label(text="Iterations at this zoom: %d" % iterations, icon='INFO')
 
 
 class UNBOUND_PT_fractal_quality(FractalPanel, bpy.types.Panel):
@@ -497,7 +520,7 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
 
 
 classes = (UNBOUND_UL_ifs_maps, UNBOUND_UL_kifs_planes, UNBOUND_UL_hybrid_steps, UNBOUND_PT_fractal_hint, UNBOUND_PT_fractal_hint_object, UNBOUND_PT_fractal,
-           UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
+           UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_zoom, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
            UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects,
            UNBOUND_PT_render_sea, UNBOUND_PT_performance, UNBOUND_PT_performance_threads, UNBOUND_PT_performance_kernel,
            UNBOUND_PT_world, UNBOUND_PT_camera_panorama, UNBOUND_PT_light, UNBOUND_PT_passes)

@@ -36,7 +36,26 @@ typedef struct {
     /* The render's cancel flag (NULL outside renders): estimators whose one call can be long (the
      * IFS search) poll it and cut their work short, still returning a lower bound. */
     volatile int *cancel;
+    /* Deep zoom: the precision path of a zoomed quaternion object (zoom.h); UB_ZOOM_OFF else. */
+    int zoom_path;
 } ub_de_params;
+
+/* The hit threshold in object units that picks a zoomed object's precision path: the fixed
+ * epsilon, or the pixel footprint at the camera's distance from the object's origin (a lower
+ * bound of it: the smaller threshold asks for the safer path). */
+static inline double zoom_threshold(const ub_object *o, const ub_camera *cam)
+{
+    if (!cam || o->epsilon_mode == UB_EPSILON_FIXED)
+        return o->epsilon;
+    double r2 = 0.0;
+    for (int i = 0; i < 3; i++) {
+        const double *w = o->world_to_object[i];
+        double c = w[0] * cam->position[0] + w[1] * cam->position[1] + w[2] * cam->position[2] + w[3];
+        r2 += c * c;
+    }
+    double t = sqrt(r2) * o->sigma_min;
+    return (cam->footprint0 + cam->footprint1 * t) / o->detail / o->sigma_max;
+}
 
 static inline void de_params(const ub_object *o, const ub_camera *cam, ub_de_params *p)
 {
@@ -46,6 +65,7 @@ static inline void de_params(const ub_object *o, const ub_camera *cam, ub_de_par
     p->bail2 = v_set1((float)(o->bailout * o->bailout));
     p->max_iterations = o->max_iterations;
     p->cancel = NULL;
+    p->zoom_path = o->zoom.enabled ? (int)ub_zoom_choose_path(o, zoom_threshold(o, cam)) : UB_ZOOM_OFF;
     int fixed = o->epsilon_mode == UB_EPSILON_FIXED;
     if (!cam && !fixed) { /* estimate(): no camera, no threshold needed */
         p->eps0 = p->eps1 = v_set1(0.0f);
@@ -55,9 +75,9 @@ static inline void de_params(const ub_object *o, const ub_camera *cam, ub_de_par
     p->eps1 = v_set1((float)(fixed ? 0.0 : cam->footprint1 / o->detail));
 }
 
-/* What de_ext() computes besides the distance estimate. The flags are compile-time constants at
- * every call site, so each use inlines into a loop with only the work it asks for. */
-enum { UB_WANT_TRAP = 1, UB_WANT_POTENTIAL = 2, UB_WANT_JACOBIAN = 4 };
+/* What de_ext() computes besides the distance estimate: UB_WANT_* (scene.h). The flags are
+ * compile-time constants at every call site, so each use inlines into a loop with only the work
+ * it asks for. */
 
 typedef struct {
     vf trap;       /* min |z_k| over the orbit, k = 0..n */
@@ -420,12 +440,52 @@ static inline void de_ifs(const ub_de_params *p, vm lanes, vf x, vf y, vf z, con
 
 #include "formulas.h"
 
+/* A zoomed quaternion object: the scalar double or perturbation estimate of zoom.c, lane by lane
+ * (compiled once, so every kernel gets its bits), for the lanes `lanes` only. */
+static void de_zoom(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, const int want, vf *dist, vf *iters,
+                    ub_de_extra *x)
+{
+    float q[4][UB_LANES], ds[UB_LANES] = {0}, ns[UB_LANES] = {0}, ts[UB_LANES] = {0}, ps[UB_LANES] = {0};
+    float gs[3][UB_LANES] = {{0}};
+    const int wanted = m_bits(lanes);
+    v_store(q[0], a);
+    v_store(q[1], b);
+    v_store(q[2], c);
+    v_store(q[3], d);
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((wanted >> l) & 1))
+            continue;
+        const double uq[4] = {q[0][l], q[1][l], q[2][l], q[3][l]};
+        ub_zoom_result r;
+        ub_zoom_estimate(p->obj, p->zoom_path, uq, want, &r);
+        ds[l] = (float)fmin(r.dist, FLT_MAX);
+        ns[l] = (float)r.iterations;
+        ts[l] = (float)r.trap;
+        ps[l] = (float)r.potential;
+        for (int k = 0; k < 3; k++)
+            gs[k][l] = (want & UB_WANT_JACOBIAN) ? (float)r.normal[k] : 0.0f;
+    }
+    *dist = v_load(ds);
+    *iters = v_load(ns);
+    if (want & UB_WANT_TRAP)
+        x->trap = v_load(ts);
+    if (want & UB_WANT_POTENTIAL)
+        x->potential = v_load(ps);
+    if (want & UB_WANT_JACOBIAN)
+        for (int k = 0; k < 3; k++)
+            x->normal[k] = v_load(gs[k]);
+}
+
 /* The distance estimate of the object's kind, with the extras `want` asks for, in the lanes
  * `lanes`; the other lanes' outputs are unspecified (but never trap), and they cost nothing once
  * the wanted lanes are done: a packet whose rays have mostly hit iterates only for the rest. */
 static inline void de_ext(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, const int want, vf *dist,
                                  vf *iters, ub_de_extra *x)
 {
+    if (p->zoom_path) {
+        de_zoom(p, lanes, a, b, c, d, want, dist, iters, x);
+        return;
+    }
     switch (p->obj->kind) {
     case UB_KIND_QUATERNION_MANDELBROT:
         de_quaternion(p, lanes, 1, a, b, c, d, want, dist, iters, x);

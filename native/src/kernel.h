@@ -234,8 +234,10 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         /* Normals and the orbit trap are evaluated a few float ulps of the object's size back
          * along the ray: a hit right where the ray enters the bounding ball (mu = 0: the ball is
          * the set) otherwise lands inside by rounding half the time, where the orbit collapses to
-         * 0 and the Jacobian with it. Far below the gradient step, so eq. 15 does not notice. */
-        const double back = 1e-6 * o->sigma_min * (1.0 + fabs(o->bound_radius));
+         * 0 and the Jacobian with it. Far below the gradient step, so eq. 15 does not notice.
+         * A zoomed object's size near its anchor is its local unit, not the view's cut ball. */
+        const double size = o->zoom.enabled ? 1.0 : fabs(o->bound_radius);
+        const double back = 1e-6 * o->sigma_min * (1.0 + size);
         for (int l = 0; l < UB_LANES; l++) {
             for (int i = 0; i < 3; i++)
                 back_p[i][l] = sf->p[i][l] - back * pr->dir[i][l];

@@ -236,7 +236,7 @@ static void apply_defaults(const ub_param_section *s, void *record)
     for (int i = 0; i < s->count; i++) {
         const ub_param *p = &s->rows[i];
         char *field = (char *)record + p->offset;
-        if (!p->defaults)
+        if (!p->defaults && !p->text_default)
             continue;
         switch (p->type) {
         case UB_PARAM_FLOAT:
@@ -246,6 +246,10 @@ static void apply_defaults(const ub_param_section *s, void *record)
         case UB_PARAM_BOOL:
         case UB_PARAM_CHOICE:
             *(int *)field = (int)p->defaults[0];
+            break;
+        case UB_PARAM_STRING:
+            if (p->text_default)
+                snprintf(field, (size_t)p->max + 1, "%s", p->text_default);
             break;
         case UB_PARAM_LIST:
             *(int *)((char *)record + p->count_offset) = p->default_items;
@@ -304,7 +308,7 @@ static int read_value(PyObject *v, const char *name, const ub_param *p, const ch
     case UB_PARAM_CHOICE:
         return read_choice(v, name, p->choices, (int *)field);
     case UB_PARAM_STRING:
-        return read_string(v, name, field, UB_MAX_NAME);
+        return read_string(v, name, field, (size_t)p->max + 1);
     case UB_PARAM_LIST:
         return read_list(v, name, p, hint, record);
     default:
@@ -836,23 +840,26 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
     PyObject *obj_o, *pts_o, *est_o, *it_o, *simd_o = NULL;
     if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOO|$O", kwlist, &obj_o, &pts_o, &est_o, &it_o, &simd_o))
         return NULL;
-    ub_object obj;
-    if (parse_object(obj_o, "object", &obj))
-        return NULL;
-    int kernel = get_simd(simd_o);
-    if (kernel < 0)
-        return NULL;
+    /* On the heap: a zoomed object's reference orbits make the record large. */
+    ub_object *obj = PyMem_Calloc(1, sizeof(ub_object));
+    if (!obj)
+        return PyErr_NoMemory();
     Py_buffer pv, ev, iv;
-    Py_ssize_t n = get_points(pts_o, &pv);
-    if (n < 0)
+    int kernel = -1;
+    Py_ssize_t n = -1;
+    if (parse_object(obj_o, "object", obj) || (kernel = get_simd(simd_o)) < 0 || (n = get_points(pts_o, &pv)) < 0) {
+        PyMem_Free(obj);
         return NULL;
+    }
     if (get_float_buffer(est_o, "estimate", n, 0, 0, &ev)) {
         PyBuffer_Release(&pv);
+        PyMem_Free(obj);
         return NULL;
     }
     if (get_float_buffer(it_o, "iterations", n, 0, 0, &iv)) {
         PyBuffer_Release(&pv);
         PyBuffer_Release(&ev);
+        PyMem_Free(obj);
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
@@ -860,9 +867,10 @@ static PyObject *py_estimate(PyObject *self, PyObject *args, PyObject *kwargs)
     if (n > 0)
         (kernel == UB_ISA_AVX512 ? ub_estimate_avx512 : kernel == UB_ISA_AVX2 ? ub_estimate_avx2
                                                                               : ub_estimate_portable)(
-            &obj, pv.buf, (size_t)n, ev.buf, iv.buf);
+            obj, pv.buf, (size_t)n, ev.buf, iv.buf);
     ub_fp_leave(fp);
     Py_END_ALLOW_THREADS
+    PyMem_Free(obj);
     PyBuffer_Release(&pv);
     PyBuffer_Release(&ev);
     PyBuffer_Release(&iv);
@@ -1173,7 +1181,48 @@ static PyObject *py_extract_mesh(PyObject *self, PyObject *args, PyObject *kwarg
     return result;
 }
 
+/* zoom_anchor_move(anchor, zoom, offset, digits=None) -> str: the deep zoom's anchor moved by the
+ * object-space (local) offset, anchor + offset 10^-zoom, in the fixed point of the render's
+ * reference orbit (zoom.c), with `digits` digits after the point (None: ceil(zoom) + 10). */
+static PyObject *py_zoom_anchor_move(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *kwlist[] = {"anchor", "zoom", "offset", "digits", NULL};
+    PyObject *anchor_o, *offset_o, *digits_o = Py_None;
+    double zoom;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OdO|O", kwlist, &anchor_o, &zoom, &offset_o, &digits_o))
+        return NULL;
+    char anchor[UB_MAX_ANCHOR];
+    if (read_string(anchor_o, "anchor", anchor, sizeof anchor))
+        return NULL;
+    if (!(zoom >= 0.0 && zoom <= UB_MAX_ZOOM)) {
+        PyErr_Format(PyExc_ValueError, "zoom must be within [0, %g]", UB_MAX_ZOOM);
+        return NULL;
+    }
+    static const ub_param offset_row = {"offset", UB_PARAM_FLOAT, 0, 1, 3, -1e9, 1e9, NULL, NULL, 0, "", 0, 0, 0, 0,
+                                        0, NULL, NULL};
+    double offset[3];
+    if (read_shaped(offset_o, "offset", &offset_row, "", offset))
+        return NULL;
+    int digits = (int)ceil(zoom) + 10;
+    if (digits_o != Py_None && read_int(digits_o, "digits", 0, 90, &digits))
+        return NULL;
+    char out[3 * 110];
+    const char *err = ub_zoom_anchor_move(anchor, zoom, offset, digits, out, (int)sizeof out);
+    ub_fixed check[3];
+    if (!err)
+        err = ub_anchor_parse(out, check); /* the moved anchor must still be a valid one */
+    if (err) {
+        PyErr_SetString(PyExc_ValueError, err);
+        return NULL;
+    }
+    return PyUnicode_FromString(out);
+}
+
 static PyMethodDef methods[] = {
+    {"zoom_anchor_move", (PyCFunction)(void (*)(void))py_zoom_anchor_move, METH_VARARGS | METH_KEYWORDS,
+     "zoom_anchor_move(anchor, zoom, offset, digits=None) -> str: the deep zoom anchor moved by an object-space "
+     "offset, anchor + offset * 10**-zoom, computed exactly in the core's fixed point and written with digits "
+     "digits after the point (None: ceil(zoom) + 10); the pick operator's new anchor"},
     {"extract_mesh", (PyCFunction)(void (*)(void))py_extract_mesh, METH_VARARGS | METH_KEYWORDS,
      "extract_mesh(object, *, resolution=256, epsilon=0, min_faces=0, seed_spacing=0, threads=0, simd='auto', "
      "progress=None, cancel=None, poll_interval=0.05) -> dict: the closed, manifold surface {estimate = epsilon} "
@@ -1256,7 +1305,7 @@ static PyObject *row_default(const ub_param *p)
     case UB_PARAM_CHOICE:
         return PyUnicode_FromString(p->choices[(int)d[0]]);
     case UB_PARAM_STRING:
-        return PyUnicode_FromString("");
+        return PyUnicode_FromString(p->text_default ? p->text_default : "");
     case UB_PARAM_LIST: {
         if (p->flags & UB_PARAM_NONE_OK && !p->default_items)
             Py_RETURN_NONE;

@@ -23,7 +23,7 @@ typedef enum {
     UB_PARAM_INT,      /* int components */
     UB_PARAM_BOOL,     /* int 0/1, only True or False accepted */
     UB_PARAM_CHOICE,   /* int index into choices; given as the name */
-    UB_PARAM_STRING,   /* char[UB_MAX_NAME] */
+    UB_PARAM_STRING,   /* char[max + 1]: at most `max` bytes */
     UB_PARAM_LIST,     /* min_items..max_items items, each of the row's shape or a dict of `items` */
     UB_PARAM_CUSTOM,   /* parsed by the binding's own code (callables, buffers); described only */
 } ub_param_type;
@@ -51,6 +51,7 @@ typedef struct {
     int min_items, max_items, default_items;
     size_t count_offset, item_size;
     const ub_param_section *items;
+    const char *text_default; /* STRING: the default text (NULL: "") */
 } ub_param;
 
 struct ub_param_section {
@@ -99,6 +100,8 @@ typedef struct {
     double kifs_size;
     int hybrid_steps_count;
     double hybrid_steps[UB_MAX_HYBRID_STEPS][2];
+    double zoom;
+    char zoom_anchor[UB_MAX_ANCHOR];
 } ub_object_input;
 
 typedef struct {

@@ -537,7 +537,8 @@ const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
         obj->hybrid_formula[i] = f == floor(f) ? (int)f : -1;
         obj->hybrid_repeat[i] = n == floor(n) ? (int)n : -1;
     }
-    return ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
+    const char *err = ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
+    return err ? err : ub_zoom_prepare(obj, in->zoom, in->zoom_anchor);
 }
 
 const char *ub_light_from_input(ub_light *L, const ub_light_input *in)

@@ -8,6 +8,8 @@
 #include <stdint.h>
 #include <stddef.h>
 
+#include "zoom.h"
+
 /* Hard limits: inputs outside them are rejected with a ValueError by the binding. */
 #define UB_MAX_IMAGE_SIZE 65536
 #define UB_MAX_ITERATIONS 10000
@@ -203,6 +205,8 @@ typedef struct {
     int hybrid_count;
     int hybrid_formula[UB_MAX_HYBRID_STEPS], hybrid_repeat[UB_MAX_HYBRID_STEPS];
     int hybrid_has_bulb;
+    /* Deep zoom (zoom.h): the quaternion kinds' local point u is the fractal's anchor + u 10^-zoom. */
+    ub_zoom zoom;
 } ub_object;
 
 typedef enum { UB_KIFS_SPHERE = 0, UB_KIFS_BOX, UB_KIFS_TETRAHEDRON, UB_KIFS_OCTAHEDRON } ub_kifs_shape;
@@ -355,6 +359,27 @@ void ub_estimate_portable(const ub_object *, const float *, size_t, float *, flo
 
 int ub_cpu_has_avx2_fma(void);
 int ub_cpu_has_avx512(void);
+
+/* What the estimators compute besides the distance estimate (de_ext's `want`). */
+enum { UB_WANT_TRAP = 1, UB_WANT_POTENTIAL = 2, UB_WANT_JACOBIAN = 4 };
+
+/* zoom.c: the deep zoom's set-up (after ub_object_prepare: the slice and the bound are read) and
+ * its scalar estimate, shared by both kernels. */
+const char *ub_zoom_prepare(ub_object *obj, double zoom, const char *anchor_text);
+/* The path for a hit threshold of eps_local object units (OFF for an object without zoom). */
+ub_zoom_path ub_zoom_choose_path(const ub_object *o, double eps_local);
+typedef struct {
+    double dist;          /* object (local) units */
+    int iterations;
+    double trap, potential;
+    double normal[3];     /* with UB_WANT_JACOBIAN: the gradient of |z_n| along the object's axes */
+} ub_zoom_result;
+/* The estimate at the kernels' quaternion B u (u local) by `path`, with the extras of `want`. */
+void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_result *res);
+/* The anchor moved by the local offset u, as text: anchor + u 10^-zoom with `digits` digits after
+ * the point (the fixed point's exact sum); NULL or a message. */
+const char *ub_zoom_anchor_move(const char *anchor_text, double zoom, const double u[3], int digits, char *out,
+                                int size);
 
 /* scene.c / camera.c: derive the precomputed fields; return NULL or an error message. */
 const char *ub_object_prepare(ub_object *obj, double theta, const double slice_basis[4][3],

@@ -19,6 +19,7 @@ from ._native import (  # noqa: F401
     lens_sample,
     normals,
     render,
+    zoom_anchor_move,
 )
 from . import same_bits  # noqa: F401
 from . import mesh  # noqa: F401,E402

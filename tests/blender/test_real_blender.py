@@ -128,7 +128,7 @@ def test_gui_panels_screenshots(user_dir):
     shots = {e["shot"]: e for e in log if "shot" in e}
     assert sorted(shots) == sorted(names), log
     # The fractal's parameters are in the empty's Object Data tab (file names kept).
-    expect = {"object_tab.png": ("DATA", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice",
+    expect = {"object_tab.png": ("DATA", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_slice", "UNBOUND_PT_fractal_zoom",
                                             "UNBOUND_PT_fractal_quality", "UNBOUND_PT_fractal_shading"}),
               # An IFS has no slice; its panel draws the list of maps (a UIList).
               "object_tab_ifs.png": ("DATA", {"UNBOUND_PT_fractal", "UNBOUND_PT_fractal_quality",

@@ -432,8 +432,10 @@ def value(g, row, victims, ordinary=None):
         return g.pick(BAD_NAMES + [s.upper(), s + "\0", s + " ", s[:-1], type("S", (str,), {})(s)])
     if t == "string":
         if c == 0:
+            if ordinary is not None:
+                return ordinary()
             return g.pick(["", "Mandel", "fractal 'x'", "%s%d", "é" * 10, "n" * 63])
-        return g.pick(BAD_NAMES + ["n" * 64, "a\0b"])
+        return g.pick(BAD_NAMES + ["n" * 64, "a\0b", "1 2", "1e9999 0 0", "0 0 0 0", "-" * 600])
     is_int = t == "int"
     flat_default = _components(default, shape)
     n = len(flat_default)
@@ -536,6 +538,12 @@ ORDINARY.update({
     ("object", "mu"): lambda g: g.vector(4, -1.2, 1.2),
     ("object", "matrix"): lambda g: [[1, 0, 0, g.real()], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
     ("render", "poll_interval"): lambda g: g.uniform(1e-4, 0.01),
+    # Deep zoom: mostly off (a zoom on the other kinds is refused), else up to the table's 60; the
+    # anchor as decimals, sometimes long or with an exponent.
+    ("object", "zoom"): lambda g: g.uniform(0.0, 60.0) if g.chance(3) else 0.0,
+    ("object", "zoom_anchor"): lambda g: " ".join(
+        g.pick(["%r" % g.real(-2.0, 2.0), "0." + "7" * g.f.ConsumeIntInRange(1, 120), "-1.5e-3", "0"])
+        for _ in range(3)),
 })
 
 

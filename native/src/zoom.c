@@ -1,0 +1,639 @@
+/* Deep zoom (issue 18): the anchor's fixed-point arithmetic, the reference orbits and the
+ * distance estimate of the double and perturbation paths. See zoom.h for the design. */
+#include "zoom.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "scene.h"
+#include "ubmath.h"
+
+#define N UB_FIXED_LIMBS
+#define F (UB_FIXED_LIMBS - UB_FIXED_INT_LIMBS) /* fraction limbs */
+#define UNITS (UB_FIXED_INT_LIMBS - 1)          /* the limb of weight 1 */
+
+/* ------------------------------------------------------------------ fixed point */
+
+static int fx_negative(const ub_fixed *x) { return (x->limb[0] >> 31) != 0; }
+
+static void fx_add(const ub_fixed *a, const ub_fixed *b, ub_fixed *out)
+{
+    uint64_t carry = 0;
+    for (int i = N - 1; i >= 0; i--) {
+        uint64_t s = (uint64_t)a->limb[i] + b->limb[i] + carry;
+        out->limb[i] = (uint32_t)s;
+        carry = s >> 32;
+    }
+}
+
+static void fx_neg(const ub_fixed *a, ub_fixed *out)
+{
+    uint64_t carry = 1;
+    for (int i = N - 1; i >= 0; i--) {
+        uint64_t s = (uint64_t)(uint32_t)~a->limb[i] + carry;
+        out->limb[i] = (uint32_t)s;
+        carry = s >> 32;
+    }
+}
+
+static void fx_sub(const ub_fixed *a, const ub_fixed *b, ub_fixed *out)
+{
+    ub_fixed nb;
+    fx_neg(b, &nb);
+    fx_add(a, &nb, out);
+}
+
+static void fx_abs(const ub_fixed *a, ub_fixed *out)
+{
+    if (fx_negative(a))
+        fx_neg(a, out);
+    else
+        *out = *a;
+}
+
+/* a b, the magnitude truncated to 2^-288 (toward zero: the same bits everywhere). The caller
+ * keeps |a b| < 2^63. */
+static void fx_mul(const ub_fixed *a, const ub_fixed *b, ub_fixed *out)
+{
+    ub_fixed ma, mb;
+    fx_abs(a, &ma);
+    fx_abs(b, &mb);
+    uint32_t p[2 * N] = {0}; /* least significant first */
+    for (int i = 0; i < N; i++) {
+        uint64_t carry = 0, ai = ma.limb[N - 1 - i];
+        for (int j = 0; j < N; j++) {
+            uint64_t t = ai * mb.limb[N - 1 - j] + p[i + j] + carry;
+            p[i + j] = (uint32_t)t;
+            carry = t >> 32;
+        }
+        p[i + N] = (uint32_t)carry;
+    }
+    ub_fixed r;
+    for (int i = 0; i < N; i++)
+        r.limb[N - 1 - i] = p[i + F];
+    if (fx_negative(a) != fx_negative(b))
+        fx_neg(&r, out);
+    else
+        *out = r;
+}
+
+/* Non-negative x / d, truncated. */
+static void fx_div_small(ub_fixed *x, uint32_t d)
+{
+    uint64_t rem = 0;
+    for (int i = 0; i < N; i++) {
+        uint64_t cur = (rem << 32) | x->limb[i];
+        x->limb[i] = (uint32_t)(cur / d);
+        rem = cur % d;
+    }
+}
+
+void ub_fixed_from_double(double x, ub_fixed *out)
+{
+    /* Exact: ldexp and floor do not round; bits below 2^-288 are dropped. */
+    double m = fabs(x);
+    for (int i = 0; i < N; i++) {
+        int e = 32 * (UNITS - i);
+        double v = floor(ldexp(m, -e));
+        out->limb[i] = (uint32_t)v;
+        m -= ldexp(v, e);
+    }
+    if (x < 0.0)
+        fx_neg(out, out);
+}
+
+double ub_fixed_to_double(const ub_fixed *x)
+{
+    ub_fixed m;
+    fx_abs(x, &m);
+    double r = 0.0;
+    for (int i = 0; i < N; i++)
+        r += ldexp((double)m.limb[i], 32 * (UNITS - i));
+    return fx_negative(x) ? -r : r;
+}
+
+static int fx_is_zero(const ub_fixed *x)
+{
+    for (int i = 0; i < N; i++)
+        if (x->limb[i])
+            return 0;
+    return 1;
+}
+
+#define MAX_DIGITS 400
+
+const char *ub_fixed_parse(const char **text, ub_fixed *out)
+{
+    const char *s = *text;
+    int negative = 0;
+    if (*s == '+' || *s == '-')
+        negative = *s++ == '-';
+    char digits[MAX_DIGITS];
+    int count = 0, point = -1, seen = 0;
+    for (;; s++) {
+        if (*s >= '0' && *s <= '9') {
+            seen = 1;
+            if (count == 0 && *s == '0' && point < 0)
+                continue; /* leading zeros of the integer part */
+            if (count >= MAX_DIGITS)
+                return "has too many digits (at most 400)";
+            digits[count++] = (char)(*s - '0');
+        } else if (*s == '.' && point < 0) {
+            point = count;
+        } else {
+            break;
+        }
+    }
+    if (!seen)
+        return "is not a decimal number";
+    if (point < 0)
+        point = count;
+    if (*s == 'e' || *s == 'E') {
+        s++;
+        int esign = 1, e = 0, edigits = 0;
+        if (*s == '+' || *s == '-')
+            esign = *s++ == '-' ? -1 : 1;
+        while (*s >= '0' && *s <= '9') {
+            if (e < 100000)
+                e = 10 * e + (*s - '0');
+            s++;
+            edigits++;
+        }
+        if (!edigits)
+            return "has an exponent without digits";
+        if (e > 1000)
+            return "has an exponent out of range";
+        point += esign * e;
+    }
+    /* Integer part: digits[0..point); at most 4 digits (|x| <= 1e3 is checked by the caller). */
+    if (point > 4)
+        return "is out of range (at most 1000 in magnitude)";
+    uint32_t whole = 0;
+    for (int i = 0; i < point; i++)
+        whole = 10 * whole + (uint32_t)(i < count ? digits[i] : 0);
+    /* Fraction by Horner from the last digit: f <- (f + d) / 10. */
+    ub_fixed f;
+    memset(&f, 0, sizeof f);
+    for (int i = count - 1; i >= point; i--) {
+        f.limb[UNITS] += (uint32_t)(i >= 0 ? digits[i] : 0);
+        fx_div_small(&f, 10);
+    }
+    f.limb[UNITS] += whole;
+    if (negative)
+        fx_neg(&f, &f);
+    *out = f;
+    *text = s;
+    return NULL;
+}
+
+int ub_fixed_format(const ub_fixed *x, int digits, char *out, int size)
+{
+    ub_fixed m, half;
+    fx_abs(x, &m);
+    /* Rounded to nearest (half away from zero): add half a unit of the last digit, 5 10^-(digits+1). */
+    memset(&half, 0, sizeof half);
+    half.limb[UNITS] = 5;
+    for (int k = 0; k <= digits; k++)
+        fx_div_small(&half, 10);
+    fx_add(&m, &half, &m);
+    uint64_t whole = ((uint64_t)m.limb[0] << 32) | m.limb[1];
+    int len = snprintf(out, (size_t)size, "%s%llu", fx_negative(x) && !fx_is_zero(x) ? "-" : "",
+                       (unsigned long long)whole);
+    m.limb[0] = m.limb[1] = 0;
+    int point = len;
+    if (len + 1 < size)
+        out[len++] = '.';
+    for (int k = 0; k < digits && len + 1 < size; k++) {
+        uint64_t carry = 0;
+        for (int i = N - 1; i >= UB_FIXED_INT_LIMBS; i--) {
+            uint64_t t = (uint64_t)m.limb[i] * 10 + carry;
+            m.limb[i] = (uint32_t)t;
+            carry = t >> 32;
+        }
+        out[len++] = (char)('0' + carry);
+    }
+    while (len > point + 1 && out[len - 1] == '0')
+        len--;
+    if (len == point + 1) /* no fraction digits left: drop the point */
+        len--;
+    out[len] = 0;
+    /* "-0.000" truncated to zero prints as "0". */
+    if (strcmp(out, "-0") == 0)
+        memmove(out, out + 1, 2), len = 1;
+    return len;
+}
+
+const char *ub_anchor_parse(const char *text, ub_fixed anchor[3])
+{
+    const char *s = text;
+    for (int k = 0; k < 3; k++) {
+        while (*s == ' ' || *s == '\t' || *s == ',')
+            s++;
+        if (!*s)
+            return "zoom_anchor must hold three decimal numbers (x y z), e.g. '0.6 0.8 0'";
+        const char *err = ub_fixed_parse(&s, &anchor[k]);
+        if (err) {
+            static _Thread_local char message[160];
+            snprintf(message, sizeof message, "zoom_anchor: number %d %s (write x y z, e.g. '0.6 0.8 0')", k + 1,
+                     err);
+            return message;
+        }
+        if (fabs(ub_fixed_to_double(&anchor[k])) > 1e3)
+            return "zoom_anchor: each coordinate must be within [-1000, 1000]";
+        if (*s && *s != ' ' && *s != '\t' && *s != ',')
+            return "zoom_anchor must hold three decimal numbers separated by spaces, e.g. '0.6 0.8 0'";
+    }
+    while (*s == ' ' || *s == '\t' || *s == ',')
+        s++;
+    if (*s)
+        return "zoom_anchor must hold exactly three numbers (x y z)";
+    return NULL;
+}
+
+/* ------------------------------------------------------------------ reference orbits */
+
+static double norm2_of(const double z[4]) { return z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3] * z[3]; }
+
+/* z <- z^2 + c in the quaternions: (a^2 - |v|^2 + c0, 2 a v + c_v). */
+static void fx_quat_step(ub_fixed z[4], const ub_fixed c[4])
+{
+    ub_fixed sq[4], n[4];
+    for (int k = 0; k < 4; k++)
+        fx_mul(&z[k], &z[k], &sq[k]);
+    fx_sub(&sq[0], &sq[1], &n[0]);
+    fx_sub(&n[0], &sq[2], &n[0]);
+    fx_sub(&n[0], &sq[3], &n[0]);
+    fx_add(&n[0], &c[0], &n[0]);
+    for (int k = 1; k < 4; k++) {
+        ub_fixed t;
+        fx_mul(&z[0], &z[k], &t);
+        fx_add(&t, &t, &t);
+        fx_add(&t, &c[k], &n[k]);
+    }
+    memcpy(z, n, sizeof n);
+}
+
+/* The orbit of z0 under z^2 + c into out[0..], until its first entry past the bailout or
+ * `count` entries; returns the entries stored. */
+static int reference_orbit(const ub_fixed z0[4], const ub_fixed c[4], double bail2, int count, double (*out)[4])
+{
+    ub_fixed z[4];
+    memcpy(z, z0, sizeof z);
+    for (int k = 0; k < count; k++) {
+        double r2 = 0.0;
+        for (int i = 0; i < 4; i++) {
+            out[k][i] = ub_fixed_to_double(&z[i]);
+            r2 += out[k][i] * out[k][i];
+        }
+        if (r2 > bail2 || k + 1 == count)
+            return k + 1;
+        fx_quat_step(z, c);
+    }
+    return count;
+}
+
+/* The linear map delta -> Z delta + delta Z of one iteration at Z = (a, v) as a 4x4 matrix:
+ * (2(a p - v.w), 2(a w + p v)) for delta = (p, w). */
+static void linear_map(const double z[4], double m[4][4])
+{
+    memset(m, 0, 16 * sizeof(double));
+    m[0][0] = 2.0 * z[0];
+    for (int k = 1; k < 4; k++) {
+        m[0][k] = -2.0 * z[k];
+        m[k][0] = 2.0 * z[k];
+        m[k][k] = 2.0 * z[0];
+    }
+}
+
+/* Bilinear approximation's first row (Julia, from the anchor's orbit): while |delta_j| is below
+ * UB_ZOOM_SKIP_TOLERANCE |Z_j|, delta_{j+1} = L_j delta_j to double's rounding, so K iterations are
+ * one matrix M_K = L_{K-1} ... L_0. |delta_j| <= |M_j|_F |delta_0| (Frobenius: above the operator
+ * norm) gives each entry's radius. Returns the entries filled. */
+static int skip_table(ub_zoom *zm)
+{
+    double m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+    double radius = HUGE_VAL, dr2 = 1.0, trap = norm2_of(zm->ref[0]);
+    int count = 0;
+    for (int j = 0; j + 1 < zm->ref_length; j++) {
+        double frob = 0.0;
+        for (int r = 0; r < 4; r++)
+            for (int c = 0; c < 4; c++)
+                frob += m[r][c] * m[r][c];
+        radius = fmin(radius, UB_ZOOM_SKIP_TOLERANCE * sqrt(norm2_of(zm->ref[j])) / sqrt(frob));
+        double l[4][4], next[4][4];
+        linear_map(zm->ref[j], l);
+        for (int r = 0; r < 4; r++)
+            for (int c = 0; c < 4; c++)
+                next[r][c] = l[r][0] * m[0][c] + l[r][1] * m[1][c] + l[r][2] * m[2][c] + l[r][3] * m[3][c];
+        memcpy(m, next, sizeof m);
+        dr2 *= 4.0 * norm2_of(zm->ref[j]);
+        trap = fmin(trap, norm2_of(zm->ref[j + 1]));
+        if (!(radius > 1e-300) || !(dr2 < 1e300))
+            break; /* nothing more to skip (or about to overflow) */
+        if ((j + 1) % UB_ZOOM_SKIP_STRIDE == 0) {
+            count = (j + 1) / UB_ZOOM_SKIP_STRIDE;
+            memcpy(zm->skip[count].matrix, m, sizeof m);
+            zm->skip[count].radius = radius;
+            zm->skip[count].dr2 = dr2;
+            zm->skip[count].trap = trap;
+        }
+    }
+    return count;
+}
+
+const char *ub_zoom_prepare(ub_object *obj, double zoom, const char *anchor_text)
+{
+    ub_zoom *zm = &obj->zoom;
+    ub_fixed anchor[3];
+    const char *err = ub_anchor_parse(anchor_text, anchor);
+    if (err)
+        return err;
+    zm->enabled = zoom != 0.0 || !fx_is_zero(&anchor[0]) || !fx_is_zero(&anchor[1]) || !fx_is_zero(&anchor[2]);
+    if (!zm->enabled)
+        return NULL; /* today's object, untouched */
+    int julia = obj->kind == UB_KIND_QUATERNION_JULIA;
+    if (!julia && obj->kind != UB_KIND_QUATERNION_MANDELBROT)
+        return "zoom and zoom_anchor apply to the quaternion Julia and Mandelbrot kinds only";
+    zm->zoom = zoom;
+    zm->scale = ub_pow(10.0, -zoom);
+    /* The mu the float32 kernels iterate, exactly: every path must see the same set. */
+    for (int k = 0; k < 4; k++)
+        zm->mu[k] = (double)(float)obj->mu[k];
+    /* The anchor's quaternion Q = slice_origin + B anchor, in fixed point. */
+    ub_fixed q[4], mu[4];
+    double q2 = 0.0;
+    for (int r = 0; r < 4; r++) {
+        ub_fixed_from_double(obj->slice_origin[r], &q[r]);
+        for (int c = 0; c < 3; c++) {
+            ub_fixed b, t;
+            ub_fixed_from_double(obj->slice_basis[r][c], &b);
+            fx_mul(&b, &anchor[c], &t);
+            fx_add(&q[r], &t, &q[r]);
+        }
+        ub_fixed_from_double(zm->mu[r], &mu[r]);
+        zm->anchor_q[r] = ub_fixed_to_double(&q[r]);
+        q2 += zm->anchor_q[r] * zm->anchor_q[r];
+    }
+    zm->magnitude = fmax(1.0, sqrt(q2));
+    /* Iterations that follow the zoom (zoom.h), within what the reference orbits hold. */
+    int extra = (int)ceil(UB_ZOOM_ITERATIONS_PER_DECADE * zoom);
+    obj->max_iterations = obj->max_iterations + extra;
+    if (obj->max_iterations > UB_ZOOM_MAX_ORBIT)
+        obj->max_iterations = UB_ZOOM_MAX_ORBIT;
+    double bail2 = obj->bailout * obj->bailout;
+    ub_fixed zero[4];
+    memset(zero, 0, sizeof zero);
+    if (julia) {
+        zm->ref_length = reference_orbit(q, mu, bail2, obj->max_iterations + 1, zm->ref);
+        zm->crit_length = reference_orbit(zero, mu, bail2, obj->max_iterations + 1, zm->crit);
+    } else {
+        /* Mandelbrot: z0 = c = the point (the kernels' convention) is entry 1 of 0's orbit. */
+        zm->ref_length = reference_orbit(zero, q, bail2, obj->max_iterations + 2, zm->ref);
+        zm->crit_length = zm->ref_length;
+        memcpy(zm->crit, zm->ref, sizeof zm->ref);
+    }
+    zm->skip_count = julia ? skip_table(zm) : 0;
+    /* The bounding ball in local units, cut to UB_ZOOM_VIEW_RADIUS around the anchor. */
+    if (obj->bound_radius >= 0.0) {
+        double center[3], dist2 = 0.0;
+        for (int c = 0; c < 3; c++) {
+            center[c] = (obj->bound_center[c] - ub_fixed_to_double(&anchor[c])) / zm->scale;
+            dist2 += center[c] * center[c];
+        }
+        double radius = obj->bound_radius / zm->scale;
+        if (sqrt(dist2) - radius > UB_ZOOM_VIEW_RADIUS) {
+            obj->bound_radius = -1.0; /* the set is out of the zoomed view */
+        } else if (radius > UB_ZOOM_VIEW_RADIUS) {
+            obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+            obj->bound_radius = UB_ZOOM_VIEW_RADIUS;
+        } else {
+            memcpy(obj->bound_center, center, sizeof center);
+            obj->bound_radius = radius;
+        }
+    }
+    /* The kernels' quaternion becomes the local offset B u; the estimate adds Q + 10^-zoom B u. */
+    for (int r = 0; r < 4; r++)
+        obj->slice_origin[r] = 0.0;
+    return NULL;
+}
+
+ub_zoom_path ub_zoom_choose_path(const ub_object *o, double eps_local)
+{
+    if (!o->zoom.enabled)
+        return UB_ZOOM_OFF;
+    /* Double while the hit threshold spans 2^36 of double's units at the fractal's size: the
+     * rounding of z0 (and its amplification along the orbit, which the distance shares) stays
+     * below 1e-5 of the threshold. */
+    double fractal_eps = eps_local * o->zoom.scale;
+    return fractal_eps >= ldexp(o->zoom.magnitude, -36) ? UB_ZOOM_DOUBLE : UB_ZOOM_PERTURBATION;
+}
+
+/* ------------------------------------------------------------------ the estimate */
+
+/* zh + hz = (2(ap - v.w), 2(aw + pv)) for z = (a, v), h = (p, w): the cross products cancel. */
+static void sym_product(const double z[4], const double h[4], double out[4])
+{
+    double vw = z[1] * h[1] + z[2] * h[2] + z[3] * h[3];
+    out[0] = 2.0 * (z[0] * h[0] - vw);
+    for (int k = 1; k < 4; k++)
+        out[k] = 2.0 * (z[0] * h[k] + h[0] * z[k]);
+}
+
+
+void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_result *res)
+{
+    const ub_zoom *zm = &o->zoom;
+    const int julia = o->kind == UB_KIND_QUATERNION_JULIA;
+    const double bail2 = o->bailout * o->bailout;
+    double offset[4], z[4], delta[4], dc[4];
+    for (int k = 0; k < 4; k++) {
+        offset[k] = zm->scale * u_q[k];
+        z[k] = zm->anchor_q[k] + offset[k];
+    }
+    /* The reference the point follows (NULL: none, delta is z itself) and what is added per step
+     * on top of the reference's own step: dc. */
+    const double(*orbit)[4] = NULL;
+    int length = 0, index = 0;
+    if (path == UB_ZOOM_PERTURBATION) {
+        orbit = zm->ref;
+        length = zm->ref_length;
+        index = julia ? 0 : 1;
+        memcpy(delta, offset, sizeof delta);
+        for (int k = 0; k < 4; k++)
+            dc[k] = julia ? 0.0 : offset[k];
+    } else {
+        memcpy(delta, z, sizeof delta);
+        for (int k = 0; k < 4; k++)
+            dc[k] = julia ? zm->mu[k] : z[k];
+    }
+    /* The full c of direct iteration, should the reference end before the point escapes. */
+    double c_full[4];
+    for (int k = 0; k < 4; k++)
+        c_full[k] = julia ? zm->mu[k] : z[k];
+
+    double r2 = norm2_of(z), dr2 = 1.0, dm = 1.0, trap = r2, gscale = 1.0;
+    double j[3][4], add_scale = 1.0;
+    if (want & UB_WANT_JACOBIAN)
+        for (int a = 0; a < 3; a++)
+            for (int k = 0; k < 4; k++)
+                j[a][k] = o->slice_basis[k][a];
+    int n = 0;
+    if (orbit && julia && zm->skip_count > 0) {
+        /* The largest skip whose radius holds this point's delta_0 (radii shrink with K). */
+        double d0 = sqrt(norm2_of(delta));
+        int lo = 0, hi = zm->skip_count;
+        while (lo < hi) {
+            int mid = (lo + hi + 1) / 2;
+            if (zm->skip[mid].radius >= d0)
+                lo = mid;
+            else
+                hi = mid - 1;
+        }
+        int K = lo * UB_ZOOM_SKIP_STRIDE;
+        if (K > 0 && K < o->max_iterations) {
+            const double(*m)[4] = zm->skip[lo].matrix;
+            double nd[4];
+            for (int r = 0; r < 4; r++)
+                nd[r] = m[r][0] * delta[0] + m[r][1] * delta[1] + m[r][2] * delta[2] + m[r][3] * delta[3];
+            memcpy(delta, nd, sizeof delta);
+            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same linear maps */
+                for (int a = 0; a < 3; a++) {
+                    double nj[4];
+                    for (int r = 0; r < 4; r++)
+                        nj[r] = m[r][0] * j[a][0] + m[r][1] * j[a][1] + m[r][2] * j[a][2] + m[r][3] * j[a][3];
+                    memcpy(j[a], nj, sizeof nj);
+                }
+            index = n = K;
+            for (int k = 0; k < 4; k++)
+                z[k] = orbit[index][k] + delta[k];
+            r2 = norm2_of(z);
+            dr2 = zm->skip[lo].dr2;
+            trap = zm->skip[lo].trap;
+            gscale = ldexp(1.0, -K);
+        }
+    }
+    for (int it = n; it < o->max_iterations; it++) {
+        if (want & UB_WANT_JACOBIAN) {
+            double big = 0.0;
+            for (int a = 0; a < 3; a++) {
+                double nj[4];
+                sym_product(z, j[a], nj);
+                if (!julia)
+                    for (int k = 0; k < 4; k++)
+                        nj[k] += add_scale * o->slice_basis[k][a];
+                memcpy(j[a], nj, sizeof nj);
+                big = fmax(big, norm2_of(nj));
+            }
+            if (big > 1e200) { /* only the direction matters */
+                for (int a = 0; a < 3; a++)
+                    for (int k = 0; k < 4; k++)
+                        j[a][k] *= 1e-100;
+                add_scale *= 1e-100;
+            }
+        }
+        if (julia)
+            dr2 *= 4.0 * r2;
+        else
+            dm = 2.0 * sqrt(r2) * dm + 1.0;
+        if (orbit && index + 1 >= length) {
+            /* The reference escaped (or its storage ended) before this point: go on directly.
+             * The point's orbit is the size of the escape radius here, where double's rounding
+             * is harmless. */
+            memcpy(delta, z, sizeof delta);
+            memcpy(dc, c_full, sizeof dc);
+            orbit = NULL;
+        }
+        /* delta <- Z delta + delta Z + delta^2 + dc, with Z = 0 when there is no reference. */
+        double nd[4];
+        const double p = delta[0];
+        if (orbit) {
+            /* (Z + delta)^2 - Z^2 = Z delta + delta Z + delta^2 (Z = (a, v), delta = (p, w)):
+             * real part p (2a + p) - w.(2v + w), vector part 2 (a + p) w + 2 p v. */
+            const double *ref = orbit[index];
+            nd[0] = p * (2.0 * ref[0] + p);
+            for (int k = 1; k < 4; k++)
+                nd[0] -= delta[k] * (2.0 * ref[k] + delta[k]);
+            for (int k = 1; k < 4; k++)
+                nd[k] = 2.0 * ((ref[0] + p) * delta[k] + p * ref[k]);
+        } else {
+            nd[0] = p * p - (delta[1] * delta[1] + delta[2] * delta[2] + delta[3] * delta[3]);
+            for (int k = 1; k < 4; k++)
+                nd[k] = 2.0 * p * delta[k];
+        }
+        for (int k = 0; k < 4; k++)
+            delta[k] = nd[k] + dc[k];
+        if (orbit) {
+            index++;
+            for (int k = 0; k < 4; k++)
+                z[k] = orbit[index][k] + delta[k];
+            if (norm2_of(z) < norm2_of(delta)) {
+                /* Glitch: rebase onto the critical orbit, whose entry 0 is the critical point 0
+                 * (the Julia reference cannot serve; for the Mandelbrot set it is the anchor's own
+                 * orbit from 0, and delta_c stays). */
+                memcpy(delta, z, sizeof delta);
+                orbit = zm->crit;
+                length = zm->crit_length;
+                index = 0;
+                if (julia)
+                    for (int k = 0; k < 4; k++)
+                        dc[k] = 0.0;
+            }
+        } else {
+            memcpy(z, delta, sizeof z);
+        }
+        double nr2 = norm2_of(z);
+        r2 = nr2;
+        trap = fmin(trap, nr2);
+        gscale *= 0.5;
+        n++;
+        if (nr2 > bail2)
+            break;
+    }
+    int escaped = r2 > bail2;
+    double est = 0.0, lr2 = escaped ? ub_log(r2) : 0.0;
+    if (escaped) {
+        if (!julia)
+            dr2 = dm * dm;
+        est = sqrt(r2 / dr2) * lr2 * 0.25 / zm->scale; /* fractal units -> local units */
+    }
+    res->dist = est;
+    res->iterations = n;
+    res->trap = sqrt(trap);
+    res->potential = escaped ? lr2 * 0.5 * gscale : 0.0;
+    if (want & UB_WANT_JACOBIAN) {
+        /* Only the direction is used: unit length, so float32 holds it. */
+        double len2 = 0.0;
+        for (int a = 0; a < 3; a++) {
+            res->normal[a] = z[0] * j[a][0] + z[1] * j[a][1] + z[2] * j[a][2] + z[3] * j[a][3];
+            len2 += res->normal[a] * res->normal[a];
+        }
+        double inv = len2 > 0.0 && len2 < HUGE_VAL ? 1.0 / sqrt(len2) : 0.0;
+        for (int a = 0; a < 3; a++)
+            res->normal[a] *= inv;
+    }
+}
+
+const char *ub_zoom_anchor_move(const char *anchor_text, double zoom, const double u[3], int digits, char *out,
+                                int size)
+{
+    ub_fixed anchor[3];
+    const char *err = ub_anchor_parse(anchor_text, anchor);
+    if (err)
+        return err;
+    /* The same 10^-zoom the estimate scales by; the offset's rounding in double is far below
+     * the pixel it was picked in. */
+    double scale = ub_pow(10.0, -zoom);
+    int len = 0;
+    for (int k = 0; k < 3; k++) {
+        ub_fixed offset;
+        ub_fixed_from_double(scale * u[k], &offset);
+        fx_add(&anchor[k], &offset, &anchor[k]);
+        if (k && len + 1 < size)
+            out[len++] = ' ';
+        len += ub_fixed_format(&anchor[k], digits, out + len, size - len);
+        if (len >= size - 1)
+            return "the anchor text is too long";
+    }
+    return NULL;
+}

@@ -1,0 +1,100 @@
+/* Deep zoom (issue 18): the object's local point u is the fractal's point p = anchor + u 10^-zoom.
+ *
+ * Precision. The march itself stays in the kernels' float32, in local units: there the camera,
+ * the pixel footprint and the hit threshold have the sizes they have at zoom 0, so float32
+ * resolves the pixel as well as it does today. Only the distance estimate has to see the fractal
+ * at 10^-zoom, and it runs here, scalar, once per lane, in one of two paths chosen per object and
+ * render from the hit threshold in fractal units (ub_zoom_choose_path):
+ *   - double: z0 = Q + 10^-zoom B u iterated in double, while the threshold is above 2^-36 of the
+ *     fractal's coordinates (about zoom 7 at a pixel threshold);
+ *   - perturbation past that: a reference orbit Z_k of the anchor's quaternion Q computed once in
+ *     fixed point (288 fraction bits, ~86 digits), stored in double, and per point the difference
+ *     delta_k = z_k - Z_k in double: delta_{k+1} = Z delta + delta Z + delta^2 (+ delta_c for the
+ *     Mandelbrot set): exact, the quaternions' order kept. Where |Z_k + delta_k| < |delta_k| the
+ *     reference no longer serves (glitch) and the point is rebased onto the critical orbit
+ *     (0, mu, mu^2 + mu, ...) with delta = z (Zhuoran's rebasing).
+ * This file is compiled once: both kernels (AVX2 and portable) call the same code, so they agree
+ * bit for bit; only IEEE + - * / sqrt and the core's own log (ubmath.h) reach its results, and the
+ * anchor's arithmetic is integer (the same bits on every platform).
+ *
+ * Why fixed point and not quad-double or mpmath: the anchor and the reference orbits are bounded
+ * (|z| <= bailout), so a fixed binary point loses nothing; integer limbs have no rounding modes,
+ * no renormalisation, and parse and print decimals exactly; mpmath would put Python on the
+ * render's path. */
+#ifndef UNBOUND_ZOOM_H
+#define UNBOUND_ZOOM_H
+
+#include <stdint.h>
+
+/* Fixed point: two's complement, limb[0] most significant; 2 integer limbs (|x| < 2^63), 9
+ * fraction limbs (2^-288 ~ 2e-87). */
+#define UB_FIXED_LIMBS 11
+#define UB_FIXED_INT_LIMBS 2
+typedef struct {
+    uint32_t limb[UB_FIXED_LIMBS];
+} ub_fixed;
+
+/* Deepest zoom: the anchor and reference keep 86 digits; the deltas need zoom + ~20 of them. */
+#define UB_MAX_ZOOM 60.0
+/* Longest anchor string (three numbers of up to ~100 digits each, with room to spare). */
+#define UB_MAX_ANCHOR 512
+/* Reference orbits are stored for at most this many iterations; a zoomed object's iteration
+ * count is clamped to it. */
+#define UB_ZOOM_MAX_ORBIT 1024
+/* Iterations that follow the zoom: max_iterations + ceil(UB_ZOOM_ITERATIONS_PER_DECADE zoom).
+ * Near a Julia surface the escape count grows about 6 per decade (issue 18, measured for
+ * mu = -0.2+0.8i: 40, 104, 160, 254 at zoom 10, 20, 30, 45); 3.3 on the unit ball (mu = 0:
+ * |z| = 1 + d escapes after log2(log 4 / d) iterations). 7 keeps a margin over both. */
+#define UB_ZOOM_ITERATIONS_PER_DECADE 7.0
+/* A zoomed object is drawn within this radius (object units) of its local origin, the anchor:
+ * the whole set's bounding ball is 10^zoom local units across, far beyond float32's reach. */
+#define UB_ZOOM_VIEW_RADIUS 64.0
+
+/* Skip table: entries every UB_ZOOM_SKIP_STRIDE iterations; an iteration is linear to within
+ * UB_ZOOM_SKIP_TOLERANCE (relative) when |delta_j| <= that fraction of |Z_j|: the dropped delta^2
+ * is then ~1e-9 of what is kept, as if the point moved by ~1e-7 of its local offset over a hundred
+ * skipped iterations: below float32's resolution of that offset (measured: the referee's figures
+ * do not change from 2^-40 to 2^-30; zoom 30 frames 1.4x faster). */
+#define UB_ZOOM_SKIP_STRIDE 8
+#define UB_ZOOM_SKIP_TOLERANCE 0x1p-30
+
+typedef enum { UB_ZOOM_OFF = 0, UB_ZOOM_DOUBLE, UB_ZOOM_PERTURBATION } ub_zoom_path;
+
+/* What a zoomed object carries (ub_object.zoom). */
+typedef struct {
+    int enabled;          /* zoom != 0 or anchor != 0; else the object is today's, untouched */
+    double zoom;          /* log10 of the magnification */
+    double scale;         /* 10^-zoom: fractal units per local unit */
+    double mu[4];         /* the mu every path iterates: the float32 kernels' (float)mu, exactly */
+    double anchor_q[4];   /* the anchor's quaternion Q = slice_origin + B anchor, rounded to double */
+    double magnitude;     /* max(1, |Q|): the size of the fractal coordinates near the anchor */
+    /* Reference orbits in double: ref from the anchor (Julia: Z_0 = Q; Mandelbrot: Z_0 = 0,
+     * Z_1 = Q), crit from the critical point 0 (Julia: 0, mu, ...; Mandelbrot: the same as ref).
+     * *_length: the entries stored (the orbit stops after its escape or at the capacity). */
+    int ref_length, crit_length;
+    double ref[UB_ZOOM_MAX_ORBIT + 1][4];
+    double crit[UB_ZOOM_MAX_ORBIT + 1][4];
+    /* The Julia perturbation's linear start, skipped (zoom.c: skip_table): entry m covers the
+     * first K = m UB_ZOOM_SKIP_STRIDE iterations, valid for |delta_0| <= radius[m]: delta_K =
+     * matrix[m] delta_0, and what the skipped iterations add to the estimate's bookkeeping. */
+    int skip_count;
+    struct {
+        double matrix[4][4];
+        double radius;    /* largest |delta_0| for which the quadratic terms stay below UB_ZOOM_SKIP_TOLERANCE */
+        double dr2;       /* prod 4 |Z_j|^2 over the skipped iterations */
+        double trap;      /* min |Z_j|^2 over j = 0..K */
+    } skip[UB_ZOOM_MAX_ORBIT / 8 + 1];
+} ub_zoom;
+
+/* Decimal text <-> fixed point. Parse: "[+-]digits[.digits][e[+-]digits]"; returns NULL or why
+ * not. */
+const char *ub_fixed_parse(const char **text, ub_fixed *out);
+/* x with `digits` digits after the point (rounded), trailing zeros dropped; returns the length. */
+int ub_fixed_format(const ub_fixed *x, int digits, char *out, int size);
+void ub_fixed_from_double(double x, ub_fixed *out);
+double ub_fixed_to_double(const ub_fixed *x);
+
+/* "x y z" -> three fixed-point numbers, each within [-1e3, 1e3]; NULL or a message. */
+const char *ub_anchor_parse(const char *text, ub_fixed anchor[3]);
+
+#endif
