@@ -28,7 +28,7 @@ def _scene(S, width, height):
     sun.data.energy = 3.0
     sun.rotation_euler = (0.6, 0.2, 0.4)
     scene.collection.objects.link(sun)
-    _cube("Front", (0.9, -1.3, -0.5), 0.7, FRONT_INDEX)
+    _cube("Front", (0.6, -1.3, -0.35), 0.8, FRONT_INDEX)
     _cube("Back", (-1.1, 1.4, 0.4), 1.4, BACK_INDEX)
     return scene, ball
 
@@ -132,3 +132,31 @@ def unrendered_warning(S, mod, set_up, add_to_scene_collection=False):
         _cube("Late", (0.0, 2.5, 0.0), 0.5, 4)  # added after the set-up: not in the Cycles copy
     outcome, written = S.attempt(scene)
     S.report(outcome=outcome, written=written)
+
+
+def refresh(S, mod):
+    """Composite with Cycles run twice, with Set Up Compositing and a user's node in between: what
+    each run leaves behind."""
+    scene, ball = _scene(S, 40, 30)
+    scene.render.film_transparent = False
+    assert bpy.ops.scene.unbound_composite_with_cycles() == {'FINISHED'}
+    tree = mod.utils.compositor_tree(scene)
+    ours = sorted(n.name for n in tree.nodes if n.name.startswith("Unbound+Cycles "))
+    user = tree.nodes.new("CompositorNodeViewer")
+    user.name = "Mine"
+    assert bpy.ops.scene.unbound_setup_compositing() == {'FINISHED'}
+    _cube("Late", (0.0, 2.5, 0.0), 0.5, 4)
+    collection = bpy.data.collections.new("Props")
+    scene.collection.children.link(collection)
+    scene.view_layers[0].layer_collection.children["Props"].exclude = True
+    assert bpy.ops.scene.unbound_composite_with_cycles() == {'FINISHED'}
+    copy = bpy.data.scenes[scene.name + " Cycles"]
+    output = [n for n in tree.nodes if n.bl_idname in ("CompositorNodeComposite", "NodeGroupOutput")]
+    S.report(first=ours, second=sorted(n.name for n in tree.nodes if n.name.startswith("Unbound+Cycles ")),
+             all_nodes=sorted(n.name for n in tree.nodes), scenes=sorted(s.name for s in bpy.data.scenes),
+             engine=copy.render.engine, transparent=copy.render.film_transparent,
+             unbound_transparent=scene.render.film_transparent, camera=copy.camera.name,
+             objects=sorted(o.name for o in copy.objects), props_excluded=copy.view_layers[0].layer_collection
+             .children["Props"].exclude, z_pass=copy.view_layers[0].use_pass_z,
+             depth_pass=scene.view_layers[0].unbound.use_pass_depth,
+             output_fed_by=[l.from_node.name for n in output for l in tree.links if l.to_node == n])
