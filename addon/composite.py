@@ -25,7 +25,8 @@ GEOMETRY_TYPES = frozenset({'MESH', 'CURVE', 'SURFACE', 'META', 'FONT', 'CURVES'
 # Render settings the copy takes from the Unbound scene on every run: the same image, frame and camera.
 SHARED_RENDER_SETTINGS = ("resolution_x", "resolution_y", "resolution_percentage", "pixel_aspect_x",
                           "pixel_aspect_y", "use_border", "border_min_x", "border_max_x", "border_min_y",
-                          "border_max_y", "use_crop_to_border", "fps", "fps_base", "use_multiview")
+                          "border_max_y", "use_crop_to_border", "fps", "fps_base", "use_multiview",
+                          "views_format")
 SHARED_SCENE_SETTINGS = ("frame_start", "frame_end", "frame_step", "frame_current", "camera", "world")
 
 
@@ -67,10 +68,17 @@ def _copy_layer_collections(source, target):
         _copy_layer_collections(lc, other)
 
 
+def copy_name(scene):
+    """"<scene> Cycles", the scene name shortened to fit Blender's 63 bytes (a longer name would
+    be cut by Blender, and the next run would not find the copy)."""
+    base = scene.name.encode()[:63 - len(SCENE_SUFFIX)].decode(errors="ignore")
+    return base + SCENE_SUFFIX
+
+
 def cycles_scene(scene, view_layer):
     """Creates or refreshes "<scene> Cycles", the linked copy Cycles renders; returns it and its
     view layer. Cycles' own settings (samples, denoising, light paths) are the copy's, set there."""
-    name = scene.name + SCENE_SUFFIX
+    name = copy_name(scene)
     copy = bpy.data.scenes.get(name)
     if copy is None:
         copy = bpy.data.scenes.new(name)
@@ -202,7 +210,7 @@ def unrendered_warning(depsgraph):
             missing.setdefault(original.name_full, original)
     if not missing:
         return None
-    others = composited_scenes(scene.original if hasattr(scene, "original") else scene)
+    others = composited_scenes(scene.original)
     if others:
         # A composited scene (Composite with Cycles) renders them: warn only about objects it lacks.
         inside = set()
