@@ -62,7 +62,8 @@ def test_composite_with_cycles_matches_cycles_alone(run_bpy, tmp_path):
 
     # Coverage: the composite covers exactly the reference's pixels away from edges.
     differ = composite != reference
-    print("front cube over the ball: %d pixels, ball over the back cube: %d" % (front_over_ball.sum(), ball_over_back.sum()))
+    print("front cube over the ball: %d pixels, ball over the back cube: %d"
+          % (front_over_ball.sum(), ball_over_back.sum()))
     print("coverage: %d pixels differ, %d outside the %d edge pixels (of %d)"
           % (differ.sum(), (differ & inner).sum(), edges.sum(), edges.size))
     assert not (differ & inner).any(), np.argwhere(differ & inner)[:8].tolist()
@@ -142,9 +143,9 @@ def test_a_second_run_refreshes_the_copy_and_replaces_only_its_nodes(run_bpy):
     and the collection, excluded as in the Unbound scene's view layer; one copy, not two."""
     r = run_bpy("composite.refresh")
     # The output is the tree's own where it has one (4.x makes a Composite node), else ours (5.x).
-    assert r["first"] == r["second"] and set(r["first"]) - {"Unbound+Cycles Output"} == {"Unbound+Cycles " + n for n in (
-        "Cycles", "Straight Cycles", "Straight Unbound", "Unbound", "Unbound Background", "Unbound Background Behind",
-        "Viewer", "Z Combine")}, r["first"]
+    expected = {"Unbound+Cycles " + n for n in ("Cycles", "Straight Cycles", "Straight Unbound", "Unbound",
+                                                "Unbound Background", "Unbound Background Behind", "Viewer", "Z Combine")}
+    assert r["first"] == r["second"] and set(r["first"]) - {"Unbound+Cycles Output"} == expected, r["first"]
     assert "Mine" in r["all_nodes"] and "Unbound Render Layers" in r["all_nodes"]
     assert r["output_fed_by"] == ["Unbound+Cycles Z Combine"], r["output_fed_by"]
     assert r["scenes"] == ["Scene", "Scene Cycles"]

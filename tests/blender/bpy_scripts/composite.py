@@ -23,14 +23,14 @@ def _scene(S, width, height):
     S.add_camera(scene, location=(0.0, -4.0, 0.6), target=(0.0, 0.0, 0.0), lens=35.0)
     scene.render.film_transparent = True
     _cycles_settings(scene)
-    ball = S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
+    S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
     sun.data.energy = 3.0
     sun.rotation_euler = (0.6, 0.2, 0.4)
     scene.collection.objects.link(sun)
     _cube("Front", (0.6, -1.3, -0.35), 0.8, FRONT_INDEX)
     _cube("Back", (-1.1, 1.4, 0.4), 1.4, BACK_INDEX)
-    return scene, ball
+    return scene
 
 
 def _cycles_settings(scene):
@@ -66,7 +66,7 @@ def composite_matches_cycles(S, mod, width=160, height=120):
     """F12 of the Unbound scene after Composite with Cycles (the Z Combine's image and depth, read
     from a File Output node), then Cycles alone with a 256 x 128 UV sphere in place of the fractal:
     both saved for the test to compare."""
-    scene, ball = _scene(S, width, height)
+    scene = _scene(S, width, height)
     assert bpy.ops.scene.unbound_composite_with_cycles() == {'FINISHED'}
     copy = bpy.data.scenes[scene.name + " Cycles"]
     _cycles_settings(copy)
@@ -123,7 +123,7 @@ def composite_matches_cycles(S, mod, width=160, height=120):
 def unrendered_warning(S, mod, set_up, add_to_scene_collection=False):
     """F12 of the fractal with two cubes: the render's reports (bpy.ops.render.render raises none for
     a warning; the engine's report goes to stdout, which the test reads)."""
-    scene, ball = _scene(S, 40, 30)
+    scene = _scene(S, 40, 30)
     if set_up:
         assert bpy.ops.scene.unbound_composite_with_cycles() == {'FINISHED'}
         _cycles_settings(bpy.data.scenes[scene.name + " Cycles"])
@@ -137,7 +137,7 @@ def unrendered_warning(S, mod, set_up, add_to_scene_collection=False):
 def refresh(S, mod):
     """Composite with Cycles run twice, with Set Up Compositing and a user's node in between: what
     each run leaves behind."""
-    scene, ball = _scene(S, 40, 30)
+    scene = _scene(S, 40, 30)
     scene.render.film_transparent = False
     assert bpy.ops.scene.unbound_composite_with_cycles() == {'FINISHED'}
     tree = mod.utils.compositor_tree(scene)
