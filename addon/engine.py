@@ -7,7 +7,7 @@ import traceback
 
 import numpy as np
 
-from . import export, passes, utils
+from . import composite, export, passes, utils
 from .export import RenderError
 
 # Counters of the most recent render in this process (rays, steps, iterations, out_of_steps, seconds,
@@ -285,6 +285,10 @@ def _render(engine, depsgraph):
     frame = scene.frame_current
     label = "Frame %d | %s" % (frame, view_layer.name)
     engine.update_stats("", "Unbound | %s | %d fractal object%s" % (label, len(objects), "" if len(objects) == 1 else "s"))
+    # Never silent: meshes and other objects only Cycles renders are named once per render.
+    unrendered = composite.unrendered_warning(depsgraph)
+    if unrendered:
+        engine.report({'WARNING'}, "Unbound: " + unrendered)
     if samples == 1:
         started = time.perf_counter()
         stats, cancelled = _render_bands(engine, depsgraph, core, (width, height, camera), objects, shading, window,

@@ -9,7 +9,7 @@ from mathutils import Euler, Matrix, Vector
 from bl_operators.presets import AddPresetBase
 from bl_ui.utils import PresetPanel
 
-from . import export, passes, utils
+from . import composite, export, passes, utils
 from .properties import (FRACTAL_KINDS, MU_STEP, UnboundObjectSettings, UnboundSceneSettings, _sync_display_size,
                          display_radius)
 
@@ -1178,12 +1178,43 @@ class UNBOUND_OT_setup_compositing(bpy.types.Operator):
         return {'FINISHED'}
 
 
+class UNBOUND_OT_composite_with_cycles(bpy.types.Operator):
+    """Render the scene's meshes, curves and other objects Unbound does not render with Cycles, in a
+    linked copy of this scene ("<scene> Cycles"), and combine them with the fractal by depth in this
+    scene's compositor (Z Combine): F12 here renders both. Run it again after adding objects
+    directly to the Scene Collection"""
+    bl_idname = "scene.unbound_composite_with_cycles"
+    bl_label = "Composite with Cycles"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        scene = context.scene
+        if scene.name.endswith(composite.SCENE_SUFFIX) and scene.render.engine == 'CYCLES':
+            self.report({'ERROR'}, "Run Composite with Cycles in the Unbound scene, not in its Cycles copy")
+            return {'CANCELLED'}
+        if scene.render.engine != utils.ENGINE_ID:
+            scene.render.engine = utils.ENGINE_ID
+        view_layer = context.view_layer
+        view_layer.unbound.use_pass_depth = True  # Z Combine reads both scenes' Depth
+        try:
+            copy, copy_layer = composite.cycles_scene(scene, view_layer)
+            composite.build_nodes(scene, view_layer, copy, copy_layer)
+        except RuntimeError as exc:
+            self.report({'ERROR'}, "Unbound: %s" % exc)
+            return {'CANCELLED'}
+        count = sum(1 for ob in copy.objects if ob.type in composite.GEOMETRY_TYPES)
+        self.report({'INFO'}, "Unbound: scene '%s' renders %d object%s with Cycles; F12 here combines them with "
+                    "the fractal by depth" % (copy.name, count, "" if count == 1 else "s"))
+        return {'FINISHED'}
+
+
 def menu_add(self, context):
     self.layout.operator_menu_enum(UNBOUND_OT_fractal_add.bl_idname, "kind", text="Unbound Fractal",
                                    icon='MESH_UVSPHERE')
 
 
-classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_frame_camera, UNBOUND_OT_use_engine, UNBOUND_OT_setup_compositing, UNBOUND_MT_fractal_presets,
+classes = (UNBOUND_OT_fractal_add, UNBOUND_OT_frame_camera, UNBOUND_OT_use_engine, UNBOUND_OT_setup_compositing,
+           UNBOUND_OT_composite_with_cycles, UNBOUND_MT_fractal_presets,
            UNBOUND_MT_look_presets, UNBOUND_PT_fractal_presets, UNBOUND_PT_look_presets,
            UNBOUND_OT_fractal_preset_add, UNBOUND_OT_look_preset_add, UNBOUND_OT_color_ramp_add, UNBOUND_OT_ifs_shape, UNBOUND_OT_ifs_map_add,
            UNBOUND_OT_ifs_map_remove, UNBOUND_OT_kifs_shape, UNBOUND_OT_kifs_plane_add, UNBOUND_OT_kifs_plane_remove,

@@ -281,6 +281,7 @@ class UNBOUND_PT_render(UnboundPanel, bpy.types.Panel):
         layout.prop(settings, "samples")
         layout.prop(context.scene.render, "film_transparent")
         layout.operator("scene.unbound_setup_compositing", icon='NODETREE')
+        layout.operator("scene.unbound_composite_with_cycles", icon='SCENE_DATA')
 
 
 class UNBOUND_PT_performance(UnboundPanel, bpy.types.Panel):
