@@ -722,7 +722,11 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
                                             "poll_interval", "stride", "sample_range"};
 
     ub_camera cam;
-    ub_object *objs = PyMem_Calloc(UB_MAX_OBJECTS, sizeof(ub_object));
+    /* As many object records as given (parse_objects refuses more than UB_MAX_OBJECTS): a record
+     * holds a zoomed object's reference orbits (about 90 KB), so not UB_MAX_OBJECTS of them. */
+    Py_ssize_t given = PyList_Check(objects_o) || PyTuple_Check(objects_o) ? PySequence_Size(objects_o) : 0;
+    ub_object *objs = PyMem_Calloc(given < 1 ? 1 : given > UB_MAX_OBJECTS ? UB_MAX_OBJECTS : (size_t)given,
+                                   sizeof(ub_object));
     ub_shading *shading = PyMem_Calloc(1, sizeof(ub_shading));
     PyObject *render_kw = PyDict_New();
     Py_buffer views[UB_PASS_COUNT];

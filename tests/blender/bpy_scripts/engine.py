@@ -228,6 +228,12 @@ def rays_out_of_max_steps(S, mod, max_steps, samples=1):
         node = tree.nodes.new("CompositorNodeRLayers")
         sockets[on] = [s.name for s in node.outputs if s.enabled]
         tree.nodes.remove(node)
+    # No compositing for the render: Blender 5.x writes nothing from a compositor tree without an
+    # output node (4.x writes the render result).
+    if bpy.app.version >= (5, 0, 0):
+        scene.compositing_node_group = None
+    else:
+        scene.use_nodes = False
     exr = S.render_to_exr(scene)
     from bl_ext.user_default.unbound import export
     dg = bpy.context.evaluated_depsgraph_get()
