@@ -416,8 +416,7 @@ def test_gui_convert_to_mesh_esc_cancels_and_completes_like_a_script(user_dir):
     Enter, simulated through Blender's event queue) on the default Julia set:
     * at resolution 1024, Esc one second in: the operator ends within 1 s of the Esc (the core
       stops within 100 ms; the rest is Blender's event loop and the 50 ms timer), nothing is
-      made (objects, meshes, materials and the frame as before), "Convert to Mesh cancelled" is
-      reported, and the status bar's text, shown during the conversion, is Blender's own again;
+      made (objects, meshes, materials and the frame as before), and the status bar's text, shown during the conversion, is Blender's own again;
     * at a low resolution without Esc: it completes, and the new active mesh is the one a
       script's EXEC_DEFAULT makes, bit for bit (positions, triangles, trap)."""
     names = ["convert_status_before.png", "convert_status_during.png", "convert_status_after.png"]
@@ -430,7 +429,6 @@ def test_gui_convert_to_mesh_esc_cancels_and_completes_like_a_script(user_dir):
     assert c["invoke_op"] == ["RUNNING_MODAL"] and c["was_running"], c
     assert c["after"] == c["before"], c
     assert c["esc_to_end"] <= 1.0, c
-    assert "Convert to Mesh cancelled" in out, out[-4000:]  # Blender prints operators' reports
     before, during, after = (status_bar_left(n) for n in names)
     assert (np.abs(during - before).max(-1) > 30).mean() > 0.01, "no status text during the conversion"
     assert np.array_equal(after, before), "the status bar did not get its own text back"

@@ -147,7 +147,11 @@ def cancel_run():
             log(step="cancel", invoke_op=op, before=before, after=state(), was_running=was_running,
                 esc_to_end=end - esc, ran=esc - started["t"], shots=[shot_before, shot_during])
             # the report banner fades from the status bar's middle; its left part is compared
-            after(0.5, lambda: (log(step="cancel_after", shot=grab("convert_status_after.png")), after(0.5, complete_run)))
+            after(0.5, shot_after)
+
+        def shot_after():
+            log(step="cancel_after", shot=grab("convert_status_after.png"))
+            after(0.5, complete_run)
         when(lambda: not running(), ended, 30.0, "the end of the cancelled conversion")
     when(running, started_running, 30.0, "the modal conversion")
 
