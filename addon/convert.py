@@ -17,6 +17,7 @@ path, and PyPI has no maintained openvdb wheel, while these nodes exist in every
 (in 4.2 behind the "New Volume Nodes" experimental option for the Add menu, yet they evaluate) to
 5.2. The voxel is the mesh's lattice cell, so the grid resolves what the mesh does."""
 import os
+import threading
 import time
 
 import bpy
@@ -81,12 +82,17 @@ def surface_epsilon(ob):
     return ob.unbound.epsilon if ob.unbound.threshold_mode == 'FIXED' else 0.0
 
 
+def extraction_arguments(ob, depsgraph, resolution, min_faces):
+    """(parameters, keywords) of the core's mesh of fractal `ob` (its surface: surface_epsilon),
+    read from Blender: on the main thread."""
+    params = export.object_parameters(ob, depsgraph, with_ramp=False)
+    return params, dict(resolution=resolution, epsilon=surface_epsilon(ob), min_faces=min_faces)
+
+
 def extract(ob, depsgraph, resolution, min_faces, progress=None, cancel=None, threads=0):
     """The core's mesh of fractal `ob` (its surface: surface_epsilon)."""
-    core = utils.native()
-    params = export.object_parameters(ob, depsgraph, with_ramp=False)
-    return core.mesh.extract(params, resolution=resolution, epsilon=surface_epsilon(ob), min_faces=min_faces,
-                             threads=threads, progress=progress, cancel=cancel)
+    params, keywords = extraction_arguments(ob, depsgraph, resolution, min_faces)
+    return utils.native().mesh.extract(params, threads=threads, progress=progress, cancel=cancel, **keywords)
 
 
 def extract_with_progress(context, ob, resolution, min_faces):
@@ -100,20 +106,50 @@ def extract_with_progress(context, ob, resolution, min_faces):
         wm.progress_end()
 
 
+class ExtractionThread(threading.Thread):
+    """extract() of fractal `ob` at the current frame on a worker thread, so that Blender's UI stays
+    live: the parameters are read from Blender here, on the main thread; the thread runs the core
+    alone (which releases the GIL) and never touches bpy. Its progress is `fraction`; setting
+    `cancel` stops the core within its poll interval. Afterwards: `mesh`, or `error`."""
+
+    def __init__(self, ob, depsgraph, resolution, min_faces):
+        super().__init__(name="Unbound Convert", daemon=True)
+        self.core = utils.native()
+        self.params, self.keywords = extraction_arguments(ob, depsgraph, resolution, min_faces)
+        self.cancel = threading.Event()
+        self.fraction, self.mesh, self.error = 0.0, None, None
+
+    def _progress(self, fraction):
+        self.fraction = fraction
+        return False
+
+    def run(self):
+        try:
+            self.mesh = self.core.mesh.extract(self.params, progress=self._progress, cancel=self.cancel,
+                                               **self.keywords)
+        except Exception as exc:  # raised again on the main thread, which reports it
+            self.error = exc
+
+
+def frames_to_convert(scene, use_frame_range):
+    """[None] (the current frame), or with use_frame_range each frame of the scene's range."""
+    return list(range(scene.frame_start, scene.frame_end + 1)) if use_frame_range else [None]
+
+
 def for_frames(scene, use_frame_range, convert_frame):
     """[convert_frame(None)] at the current frame; with use_frame_range, [convert_frame(f)] for each
     frame f of the scene's range, set in turn, and the current frame set again afterwards."""
-    if not use_frame_range:
-        return [convert_frame(None)]
     current = scene.frame_current
     try:
         results = []
-        for frame in range(scene.frame_start, scene.frame_end + 1):
-            scene.frame_set(frame)
+        for frame in frames_to_convert(scene, use_frame_range):
+            if frame is not None:
+                scene.frame_set(frame)
             results.append(convert_frame(frame))
         return results
     finally:
-        scene.frame_set(current)
+        if use_frame_range:
+            scene.frame_set(current)
 
 
 def link_beside(context, fractal, new):
@@ -137,11 +173,28 @@ def make_active(context, objects):
 # What a conversion reports as a clear error (nothing made) rather than a traceback: the core's
 # ImportError, its parameter checks, memory, Blender's refusals (RuntimeError) and files (OSError).
 CONVERT_ERRORS = (ImportError, ValueError, TypeError, MemoryError, RuntimeError, OSError, export.RenderError)
+# The interactive conversion: how often it looks at the worker thread (and redraws the progress),
+# what cancels it, how long a cancel waits for the core at once (it stops within its 50 ms poll
+# interval; a longer wait goes on at the next tick, the UI live), and the events it lets through:
+# viewport navigation, which changes no data (anything else could delete or change the fractal).
+POLL_SECONDS = 0.05
+CANCEL_EVENTS = {'ESC', 'RIGHTMOUSE'}
+CANCEL_WAIT_SECONDS = 0.2
+NAVIGATION_EVENTS = {'MIDDLEMOUSE', 'WHEELUPMOUSE', 'WHEELDOWNMOUSE', 'MOUSEMOVE', 'INBETWEEN_MOUSEMOVE',
+                     'TRACKPADPAN', 'TRACKPADZOOM', 'MOUSEROTATE', 'MOUSESMARTZOOM', 'NDOF_MOTION'}
 
 
 class ConvertOptions:
     """What Convert to Mesh and Convert to Volume share (a mixin: Blender registers the properties
-    its subclasses inherit, as with bpy_extras' ExportHelper)."""
+    its subclasses inherit, as with bpy_extras' ExportHelper): the options, and the frame loop.
+
+    From a script (EXEC_DEFAULT) or in background mode, execute() converts frame by frame and
+    returns with the result made. From the UI (the dialog's OK after invoke()), it runs modal: each
+    frame's extraction on a worker thread (ExtractionThread), the progress in the status bar, Esc or
+    right-click cancels, and each finished frame built on the main thread between frames. Both
+    ways, a subclass's hooks do the building: _begin(context) before the first frame,
+    _convert_frame(context, frame, mesh) per frame, _finish(context) -> {'FINISHED'} at the end;
+    what they make goes in self._made, removed again on an error or a cancel (_discard)."""
     resolution: IntProperty(name="Resolution", description="Lattice cells across the bounding ball's diameter; "
                             "time and memory grow with its square (the surface), not its cube",
                             default=256, min=8, max=8192, soft_max=2048)
@@ -152,6 +205,8 @@ class ConvertOptions:
     crumb_faces: IntProperty(name="Crumb Size", description="Pieces with fewer faces are removed",
                              default=1000, min=1)
 
+    PROGRESS_LABEL = "Converting"  # the status bar's "Converting to mesh: 42 % ..."
+
     @classmethod
     def poll(cls, context):
         return utils.is_fractal(context.active_object)
@@ -160,7 +215,128 @@ class ConvertOptions:
         return self.crumb_faces if self.crumbs == 'REMOVE' else 0
 
     def invoke(self, context, event):
+        # The dialog's OK calls execute(); this flag (on the same operator instance) makes that run
+        # modal. execute() clears it, so a redo (Adjust Last Operation) converts blocking again.
+        self._interactive = not bpy.app.background
         return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        interactive, self._interactive = getattr(self, "_interactive", False), False
+        self._fractal, self._made, self._started = context.active_object, [], time.perf_counter()
+        try:
+            self._begin(context)
+            if interactive and context.window is not None:
+                return self._start_modal(context)
+            for_frames(context.scene, self.use_frame_range, lambda frame: self._convert_frame(
+                context, frame, extract_with_progress(context, self._fractal, self.resolution, self.min_faces())))
+            return self._finish(context)
+        except CONVERT_ERRORS as exc:
+            return self._fail(exc)
+
+    def _fail(self, exc):
+        self._discard()
+        self.report({'ERROR'}, "Unbound: %s" % exc)
+        return {'CANCELLED'}
+
+    def _discard(self):
+        """Removes what this conversion made so far (last made first: objects before their data)."""
+        for collection, datablock in reversed(self._made):
+            try:
+                collection.remove(datablock)
+            except ReferenceError:  # already gone with its file (a cancel by loading another .blend)
+                pass
+        self._made = []
+
+    def _keep_new(self, collection, find_or_make):
+        """find_or_make()'s datablock of `collection`, in self._made when it made a new one."""
+        count = len(collection)
+        datablock = find_or_make()
+        if len(collection) > count:
+            self._made.append((collection, datablock))
+        return datablock
+
+    def _seconds(self):
+        return time.perf_counter() - self._started
+
+    # ---- the interactive (modal) conversion
+
+    def _start_modal(self, context):
+        scene = context.scene
+        self._frames, self._frame_before = frames_to_convert(scene, self.use_frame_range), scene.frame_current
+        self._done, self._status, self._workspace = 0, None, context.workspace
+        self._next_frame(context)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(POLL_SECONDS, window=context.window)
+        wm.modal_handler_add(self)
+        self._show_progress()
+        return {'RUNNING_MODAL'}
+
+    def _next_frame(self, context):
+        frame = self._frames[self._done]
+        if frame is not None:
+            context.scene.frame_set(frame)
+        self._job = ExtractionThread(self._fractal, context.evaluated_depsgraph_get(), self.resolution,
+                                     self.min_faces())
+        self._job.start()
+
+    def _show_progress(self):
+        frame, count = self._frames[self._done], len(self._frames)
+        text = "%s: %d %%%s \u2014 Esc to cancel" % (
+            self.PROGRESS_LABEL, int(100 * (self._done + self._job.fraction) / count),
+            "" if frame is None else " (frame %d, %d of %d)" % (frame, self._done + 1, count))
+        if text != self._status:  # a new text redraws the status bar
+            self._status = text
+            self._workspace.status_text_set(text)
+
+    def _end_modal(self, context):
+        """The timer gone, the status bar's own text back, the scene at its frame again."""
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+            self._workspace.status_text_set(None)
+            if self.use_frame_range:
+                context.scene.frame_set(self._frame_before)
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type in CANCEL_EVENTS and event.value == 'PRESS':
+            job.cancel.set()
+            job.join(CANCEL_WAIT_SECONDS)
+        elif event.type != 'TIMER':
+            return {'PASS_THROUGH'} if event.type in NAVIGATION_EVENTS else {'RUNNING_MODAL'}
+        if job.is_alive():
+            self._show_progress()
+            return {'RUNNING_MODAL'}
+        try:
+            if job.cancel.is_set():
+                self._end_modal(context)
+                self._discard()
+                self.report({'INFO'}, "%s cancelled" % self.bl_label)
+                return {'CANCELLED'}
+            if job.error is not None:
+                raise job.error
+            self._convert_frame(context, self._frames[self._done], job.mesh)
+            self._done += 1
+            if self._done < len(self._frames):
+                self._next_frame(context)
+                self._show_progress()
+                return {'RUNNING_MODAL'}
+            self._end_modal(context)
+            return self._finish(context)
+        except CONVERT_ERRORS as exc:
+            self._end_modal(context)
+            return self._fail(exc)
+        except Exception:  # a bug: Blender prints the traceback; nothing stays behind
+            self._end_modal(context)
+            self._discard()
+            raise
+
+    def cancel(self, context):
+        """Blender ends the modal conversion (its window closed, another .blend loaded)."""
+        self._job.cancel.set()
+        self._job.join()
+        self._end_modal(context)
+        self._discard()
 
 
 class UNBOUND_OT_convert_to_mesh(ConvertOptions, bpy.types.Operator):
@@ -169,40 +345,40 @@ class UNBOUND_OT_convert_to_mesh(ConvertOptions, bpy.types.Operator):
     bl_idname = "object.unbound_convert_to_mesh"
     bl_label = "Convert to Mesh"
     bl_options = {'REGISTER', 'UNDO'}
+    PROGRESS_LABEL = "Converting to mesh"
 
     use_frame_range: BoolProperty(name="Frame Range", description="One mesh per frame of the scene's frame "
                                   "range, each shown only on its frame (a mesh sequence)", default=False)
     use_material: BoolProperty(name="Trap Material", description="Give the mesh a material coloured by the "
                                "orbit trap attribute", default=True)
 
-    def _convert(self, context, ob, frame):
-        mesh = extract_with_progress(context, ob, self.resolution, self.min_faces())
+    def _begin(self, context):
+        self._meshes = []  # (object, core mesh stats) per frame
+
+    def _convert_frame(self, context, frame, mesh):
+        ob = self._fractal
         name = ob.name + (" Mesh" if frame is None else " Mesh %04d" % frame)
         me = build_mesh(name, mesh)
+        self._made.append((bpy.data.meshes, me))
         if self.use_material:
-            me.materials.append(trap_material())
+            me.materials.append(self._keep_new(bpy.data.materials, trap_material))
         new = bpy.data.objects.new(name, me)
+        self._made.append((bpy.data.objects, new))
         link_beside(context, ob, new)
         if frame is not None:  # shown on its own frame only
             for f, hidden in ((frame - 1, True), (frame, False), (frame + 1, True)):
                 new.hide_viewport = new.hide_render = hidden
                 new.keyframe_insert("hide_viewport", frame=f)
                 new.keyframe_insert("hide_render", frame=f)
-        return new, mesh.stats
+        self._meshes.append((new, mesh.stats))
 
-    def execute(self, context):
-        ob = context.active_object
-        start = time.perf_counter()
-        try:
-            made = for_frames(context.scene, self.use_frame_range, lambda frame: self._convert(context, ob, frame))
-        except CONVERT_ERRORS as exc:
-            self.report({'ERROR'}, "Unbound: %s" % exc)
-            return {'CANCELLED'}
+    def _finish(self, context):
+        made = self._meshes
         make_active(context, [new for new, _ in made])
         last, stats = made[-1]
         self.report({'INFO'}, "Unbound: %d mesh(es), last %d vertices, %d faces, %d piece(s) in %.1f s"
                     % (len(made), len(last.data.vertices), len(last.data.polygons),
-                       stats["pieces"] - stats["pieces_removed"], time.perf_counter() - start))
+                       stats["pieces"] - stats["pieces_removed"], self._seconds()))
         return {'FINISHED'}
 
 
@@ -352,6 +528,7 @@ class UNBOUND_OT_convert_to_volume(ConvertOptions, bpy.types.Operator):
     bl_idname = "object.unbound_convert_to_volume"
     bl_label = "Convert to Volume"
     bl_options = {'REGISTER', 'UNDO'}
+    PROGRESS_LABEL = "Converting to volume"
 
     grid: EnumProperty(name="Grid", description="What the voxels hold",
                        items=[('SDF', "Signed Distance", "A narrow-band level set named 'sdf': signed distance "
@@ -395,46 +572,44 @@ class UNBOUND_OT_convert_to_volume(ConvertOptions, bpy.types.Operator):
                 return stem
         raise ValueError("no free .vdb file name for %r in %s" % (base, folder))
 
-    def execute(self, context):
-        fractal, scene = context.active_object, context.scene
-        start = time.perf_counter()
-        written = []
+    def _begin(self, context):
+        self._written, self._grids = [], []  # the .vdb paths; (voxels, voxel size) per frame
+        self._folder_path, self._relative = self._folder()
         try:
-            folder, relative = self._folder()
-            try:
-                os.makedirs(folder, exist_ok=True)
-            except OSError as exc:
-                raise OSError("cannot write the .vdb file into %s: %s" % (folder, exc.strerror)) from exc
-            frames = list(range(scene.frame_start, scene.frame_end + 1)) if self.use_frame_range else [None]
-            stem = self._stem(folder, fractal, frames)
+            os.makedirs(self._folder_path, exist_ok=True)
+        except OSError as exc:
+            raise OSError("cannot write the .vdb file into %s: %s" % (self._folder_path, exc.strerror)) from exc
+        self._file_stem = self._stem(self._folder_path, self._fractal,
+                                     frames_to_convert(context.scene, self.use_frame_range))
 
-            def convert_frame(frame):
-                mesh = extract_with_progress(context, fractal, self.resolution, self.min_faces())
-                if not len(mesh.faces):
-                    raise ValueError("the fractal has no surface at resolution %d%s" % (
-                        self.resolution, "" if frame is None else " on frame %d" % frame))
-                voxel_size = mesh.stats["cell_size"]
-                voxels = band_voxels(mesh, voxel_size, self.band_width)
-                grid_memory_preflight(voxels, self.resolution)
-                path = os.path.join(folder, vdb_name(stem, frame))
-                written.append(path)
-                write_grid(context, mesh, self.grid, voxel_size, self.band_width, path)
-                return voxels, voxel_size
+    def _convert_frame(self, context, frame, mesh):
+        if not len(mesh.faces):
+            raise ValueError("the fractal has no surface at resolution %d%s" % (
+                self.resolution, "" if frame is None else " on frame %d" % frame))
+        voxel_size = mesh.stats["cell_size"]
+        voxels = band_voxels(mesh, voxel_size, self.band_width)
+        grid_memory_preflight(voxels, self.resolution)
+        path = os.path.join(self._folder_path, vdb_name(self._file_stem, frame))
+        self._written.append(path)
+        write_grid(context, mesh, self.grid, voxel_size, self.band_width, path)
+        self._grids.append((voxels, voxel_size))
 
-            made = for_frames(scene, self.use_frame_range, convert_frame)
-            new = self._volume_object(context, fractal, written, relative)
-        except CONVERT_ERRORS as exc:
-            for path in written:  # nothing half-made stays, on disk either
-                if os.path.exists(path):
-                    os.remove(path)
-            self.report({'ERROR'}, "Unbound: %s" % exc)
-            return {'CANCELLED'}
+    def _discard(self):
+        super()._discard()
+        for path in self._written:  # nothing half-made stays, on disk either
+            if os.path.exists(path):
+                os.remove(path)
+        self._written = []
+
+    def _finish(self, context):
+        written = self._written
+        new = self._volume_object(context, self._fractal, written, self._relative)
         make_active(context, [new])
-        voxels, voxel_size = made[-1]
+        voxels, voxel_size = self._grids[-1]
         size = sum(os.path.getsize(p) for p in written)
         self.report({'INFO'}, "Unbound: %s (%d file%s, %.1f MB), voxel size %.4g, about %.3g voxels%s, in %.1f s"
                     % (written[-1], len(written), "" if len(written) == 1 else "s", size / 1e6, voxel_size,
-                       voxels, " per frame" if len(written) > 1 else "", time.perf_counter() - start))
+                       voxels, " per frame" if len(written) > 1 else "", self._seconds()))
         if not bpy.data.filepath and self.directory.startswith("//"):
             self.report({'WARNING'}, "Unbound: the .blend is unsaved, so the .vdb went to the system's temporary "
                         "folder: save the .blend and convert again, or pack it (File > External Data > Pack "
@@ -445,6 +620,7 @@ class UNBOUND_OT_convert_to_volume(ConvertOptions, bpy.types.Operator):
         """The Volume object reading the written file(s), placed like the fractal."""
         name = fractal.name + " Volume"
         volume = bpy.data.volumes.new(name)
+        self._made.append((bpy.data.volumes, volume))
         volume.filepath = bpy.path.relpath(written[0]) if relative else written[0]
         if self.use_frame_range:
             scene = context.scene
@@ -455,8 +631,9 @@ class UNBOUND_OT_convert_to_volume(ConvertOptions, bpy.types.Operator):
             volume.frame_offset = scene.frame_start - 1
             volume.sequence_mode = 'CLIP'
         if self.use_material:
-            volume.materials.append(volume_material(self.grid))
+            volume.materials.append(self._keep_new(bpy.data.materials, lambda: volume_material(self.grid)))
         new = bpy.data.objects.new(name, volume)
+        self._made.append((bpy.data.objects, new))
         link_beside(context, fractal, new)
         return new
 

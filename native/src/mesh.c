@@ -291,6 +291,17 @@ static void poll_now(mctx *c, double f)
     }
 }
 
+/* A poll inside a long serial stretch of the caller's thread (no parallel loop running), looked at
+ * every 16384 items: the flood fill's per-wave bookkeeping at resolution 1024 runs for seconds
+ * between its parallel loops, and a cancel must stop within the poll interval there too. Returns
+ * whether to stop. */
+static inline int serial_poll(mctx *c, size_t i)
+{
+    if ((i & 16383) == 0 && c->opt->poll && ub_monotonic_seconds() >= c->next_poll)
+        poll_now(c, c->progress_hi); /* where the last parallel loop's progress ended */
+    return c->cancel;
+}
+
 /* ---------------------------------------------------------------- the estimate at points */
 
 static inline void lattice_point(const mctx *c, uint64_t key, double p[3])
@@ -488,7 +499,7 @@ static int track(mctx *c, vec *seeds, vec *active, int64_t *visited_count)
     while (frontier.n && !c->cancel) {
         /* Corners not yet known: evaluate them all at once. */
         todo.n = 0;
-        for (size_t i = 0; i < frontier.n; i++) {
+        for (size_t i = 0; i < frontier.n && !serial_poll(c, i); i++) {
             uint64_t cell = AT(frontier, uint64_t, i);
             for (int k = 0; k < 8; k++) {
                 uint64_t p = cell + CORNER_OFFSET[k];
@@ -515,7 +526,7 @@ static int track(mctx *c, vec *seeds, vec *active, int64_t *visited_count)
         for (size_t i = 0; i < todo.n; i++)
             *hmap_get(&corners, AT(todo, uint64_t, i)) = 0x80000000u | AT(flags, uint8_t, i);
         next.n = 0;
-        for (size_t i = 0; i < frontier.n; i++) {
+        for (size_t i = 0; i < frontier.n && !serial_poll(c, i); i++) {
             uint64_t cell = AT(frontier, uint64_t, i);
             uint32_t mask = 0;
             for (int k = 0; k < 8; k++)

@@ -97,23 +97,23 @@ def test_background_render(user_dir):
     shutil.copy(still, SHOTS / "background_render.png")
 
 
-def run_gui(user_dir, script, names, timeout):
+def run_gui(user_dir, script, names, timeout, blender_args=(), with_output=False):
     """Blender's GUI (SCREEN, under Xvfb) running SCRIPT with the extension installed; the old
-    screenshots `names` removed first. Returns the script's UNBOUND_GUI log after checking that
-    Blender exited cleanly without a traceback."""
+    screenshots `names` removed first. Returns the script's UNBOUND_GUI log (with_output: and
+    Blender's output) after checking that Blender exited cleanly without a traceback."""
     SHOTS.mkdir(parents=True, exist_ok=True)
     for name in names:
         (SHOTS / name).unlink(missing_ok=True)
     w, h = SCREEN
     rc, out = tool("gui", "env", "BLENDER_USER_RESOURCES=" + chroot_path(user_dir), "blender",
-                   "-p", "0", "0", str(w), str(h), "-setaudio", "None",
+                   "-p", "0", "0", str(w), str(h), "-setaudio", "None", *blender_args,
                    "--python", SCRIPTS + "/" + script, "--", chroot_path(SHOTS),
                    env={"XVFB_SCREEN": "%dx%dx24" % SCREEN, "BL_TIMEOUT": str(timeout - 30)}, timeout=timeout)
     assert rc == 0, out[-4000:]
     assert "Traceback" not in out, out[-4000:]  # a panel's draw() or a step that fails prints one
     log = results(out, "UNBOUND_GUI")
     assert not [e for e in log if e.get("error") is not None], out[-4000:]
-    return log
+    return (log, out) if with_output else log
 
 
 def test_gui_panels_screenshots(user_dir):
@@ -400,3 +400,43 @@ def test_gui_f12_result_changes_during_the_render(proxy_f12_log):
     assert all((np.abs(img.astype(int) - empty).max(-1) > 20).mean() > 0.005 for img in shown)
     assert f12["shown_after_end"]["digest"] == f12["reference"]["digest"], f12
     assert f12["reference"]["coverage"] > 0.02 and f12["reference_op"] == ["FINISHED"], f12
+
+
+# Issue 20: Convert to Mesh from the UI runs modal, with its progress in the status bar; Esc cancels
+
+def status_bar_left(name):
+    """The left third of the status bar (the bottom rows) of screenshot `name`: where Blender shows
+    the keymap hints or an operator's status text (reports show in its middle)."""
+    px = read_png(SHOTS / name).astype(int)
+    return px[-22:, :SCREEN[0] // 3, :3]
+
+
+def test_gui_convert_to_mesh_esc_cancels_and_completes_like_a_script(user_dir):
+    """Convert to Mesh as a user starts it (gui_convert_modal.py: INVOKE_DEFAULT, the dialog's
+    Enter, simulated through Blender's event queue) on the default Julia set:
+    * at resolution 1024, Esc one second in: the operator ends within 1 s of the Esc (the core
+      stops within 100 ms; the rest is Blender's event loop and the 50 ms timer), nothing is
+      made (objects, meshes, materials and the frame as before), and the status bar's text, shown during the conversion, is Blender's own again;
+    * at a low resolution without Esc: it completes, and the new active mesh is the one a
+      script's EXEC_DEFAULT makes, bit for bit (positions, triangles, trap)."""
+    names = ["convert_status_before.png", "convert_status_during.png", "convert_status_after.png"]
+    log, out = run_gui(user_dir, "gui_convert_modal.py", names, timeout=240,
+                       blender_args=("--enable-event-simulate",), with_output=True)
+    steps = {e["step"]: e for e in log if "step" in e}
+    assert steps["setup"]["add_op"] == ["FINISHED"] and steps["setup"]["is_fractal"], steps["setup"]
+    c = steps["cancel"]
+    print("Esc to the end of Convert to Mesh: %.1f ms (after %.2f s of conversion)" % (1000 * c["esc_to_end"], c["ran"]))
+    assert c["invoke_op"] == ["RUNNING_MODAL"] and c["was_running"], c
+    assert c["after"] == c["before"], c
+    assert c["esc_to_end"] <= 1.0, c
+    before, during, after = (status_bar_left(n) for n in names)
+    assert (np.abs(during - before).max(-1) > 30).mean() > 0.01, "no status text during the conversion"
+    assert np.array_equal(after, before), "the status bar did not get its own text back"
+    done = steps["complete"]
+    assert done["exec_op"] == ["FINISHED"], done
+    modal, script = done["modal"], done["exec"]
+    assert modal["type"] == "MESH" and modal["vertices"] > 1000, modal
+    assert set(done["after_modal"]["objects"]) - set(done["before"]["objects"]) == {modal["name"]}, done
+    assert script["name"] != modal["name"], done
+    for key in ("vertices", "faces", "co", "loops", "trap"):
+        assert modal[key] == script[key], (key, modal, script)
