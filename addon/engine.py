@@ -185,6 +185,21 @@ def normalised(buffer, native, samples_done):
     return buffer * (np.float32(1.0) / np.float32(samples_done))
 
 
+def result_passes(result):
+    """(layer, view names, passes) of a RenderResult: exactly the passes it holds (registered when
+    the render started; a handler may have toggled one since), in the table's order."""
+    layer = result.layers[0]
+    names = {p.name for p in layer.passes}
+    return layer, [v.name for v in result.views] or [""], [p for p in passes.PASSES if p.name in names]
+
+
+def write_pass(layer, render_pass, view, values):
+    found = layer.passes.find_by_name(render_pass.name, view)
+    if found is None:
+        raise RenderError("Blender's result has no pass %s for view '%s'" % (render_pass.name, view))
+    found.rect.foreach_set(values.ravel())
+
+
 def band_rows(height, tile_size):
     """Rows of one band of a one-sample render: a sixteenth of the window in whole tiles (so the
     threads share each band's tiles), at least one tile."""
@@ -217,10 +232,7 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
         result = engine.begin_result(0, top, w, bh, layer=depsgraph.view_layer.name)
         keep = False
         try:
-            layer = result.layers[0]
-            views = [v.name for v in result.views] or [""]
-            names = {p.name for p in layer.passes}
-            present = [p for p in passes.PASSES if p.name in names]
+            layer, views, present = result_passes(result)
             for p in present:
                 if p.native not in buffers:
                     buffers[p.native] = np.empty((rows, w, p.channels), np.float32)
@@ -246,10 +258,7 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
                 if stats.get("footprint_ratio") is not None:
                     ratio = stats["footprint_ratio"] if ratio is None else min(ratio, stats["footprint_ratio"])
                 for p in present:
-                    found = layer.passes.find_by_name(p.name, view)
-                    if found is None:
-                        raise RenderError("Blender's result has no pass %s for view '%s'" % (p.name, view))
-                    found.rect.foreach_set(band_buffers[p.native].ravel())
+                    write_pass(layer, p, view, band_buffers[p.native])
                 if stats["cancelled"]:
                     cancelled = True
                     break
@@ -304,10 +313,7 @@ def _render(engine, depsgraph):
     # and of a first sample cut short the tiles done (the others transparent black).
     keep = False
     try:
-        layer = result.layers[0]
-        views = [v.name for v in result.views] or [""]
-        names = {p.name for p in layer.passes}
-        present = [p for p in passes.PASSES if p.name in names]
+        layer, views, present = result_passes(result)
         # Zeros: what a cancelled first sample did not reach stays transparent black.
         buffers = {p.native: np.zeros((h, w, p.channels), np.float32) for p in present}
         # Depth is always rendered: the core's precision check reads it (one float per pixel).
@@ -327,12 +333,9 @@ def _render(engine, depsgraph):
 
         def write(view, done):
             for p in present:
-                found = layer.passes.find_by_name(p.name, view)
-                if found is None:
-                    raise RenderError("Blender's result has no pass %s for view '%s'" % (p.name, view))
                 # After the last sample the buffers hold the mean already (the core divided).
-                values = buffers[p.native] if done == samples else normalised(buffers[p.native], p.native, done)
-                found.rect.foreach_set(values.ravel())
+                write_pass(layer, p, view,
+                           buffers[p.native] if done == samples else normalised(buffers[p.native], p.native, done))
 
         for index, view in enumerate(views):
             if len(views) > 1:

@@ -53,6 +53,17 @@ def add_camera(scene, location=(0.4, -3.0, 0.9), target=(0.0, 0.0, 0.0), lens=50
     return cam
 
 
+class EyeCamera:
+    """What export.camera_description asks of a RenderEngine, for a mono camera outside a render."""
+    camera_override = None
+
+    def camera_model_matrix(self, ob, use_spherical_stereo=False):
+        return ob.matrix_world
+
+    def camera_shift_x(self, ob, use_spherical_stereo=False):
+        return ob.data.shift_x
+
+
 def add_fractal(mu=(-0.2, 0.8, 0.0, 0.0), **props):
     bpy.ops.object.unbound_fractal_add(mu=mu, use_cursor=False)
     ob = bpy.context.object

@@ -22,17 +22,7 @@ def passes_reach_compositor_and_exr(S, mod):
     import unbound_core
     from bl_ext.user_default.unbound import export
     dg = bpy.context.evaluated_depsgraph_get()
-
-    class Cam:  # the camera description needs only these engine methods
-        camera_override = None
-
-        def camera_model_matrix(self, ob, use_spherical_stereo=False):
-            return ob.matrix_world
-
-        def camera_shift_x(self, ob, use_spherical_stereo=False):
-            return ob.data.shift_x
-
-    cam = export.camera_description(Cam(), dg, 80, 60)
+    cam = export.camera_description(S.EyeCamera(), dg, 80, 60)
     bufs = {n: np.empty((60, 80, c), np.float32) for n, c in unbound_core.PASS_CHANNELS.items()}
     unbound_core.render(cam, export.fractal_objects(dg), bufs)
     diffs = {}
@@ -237,17 +227,7 @@ def rays_out_of_max_steps(S, mod, max_steps, samples=1):
     exr = S.render_to_exr(scene)
     from bl_ext.user_default.unbound import export
     dg = bpy.context.evaluated_depsgraph_get()
-
-    class Cam:  # the camera description needs only these engine methods
-        camera_override = None
-
-        def camera_model_matrix(self, ob, use_spherical_stereo=False):
-            return ob.matrix_world
-
-        def camera_shift_x(self, ob, use_spherical_stereo=False):
-            return ob.data.shift_x
-
-    cam = export.camera_description(Cam(), dg, 80, 60)
+    cam = export.camera_description(S.EyeCamera(), dg, 80, 60)
     S.report(stats=mod.engine.LAST_STATS, marked=exr["ViewLayer.Max Steps.X"][::-1].tolist(),
              sockets_off=sockets[False], sockets_on=sockets[True], toggle_name=vl.unbound.bl_rna.properties[
                  "use_pass_max_steps"].name,
