@@ -11,6 +11,7 @@
  * down), so a child's bound is never below its parent's: that makes the branch-and-bound
  * below exact with respect to the full-depth cut, up to the early settling it allows. */
 #include "scene.h"
+#include "ubmath.h"
 
 #include <math.h>
 #include <string.h>
@@ -81,7 +82,7 @@ static int detect_mirror_pieces(ub_object *o)
     /* The path's point grows as 1 / s per level away from the set: in float it must stay far from
      * overflow (the kernel takes points within 1e6 radii of the centre down the path; farther
      * ones settle at the root ball, de_ifs_mirror). Steeper systems keep the search. */
-    if (!(s > 0.0 && s < 1.0) || o->ifs_radius * pow(s, -o->ifs_depth) > 1e12)
+    if (!(s > 0.0 && s < 1.0) || o->ifs_radius * ub_pow(s, -o->ifs_depth) > 1e12)
         return 0;
     double fixed[UB_MAX_IFS_MAPS][3];
     for (int i = 0; i < m; i++) {

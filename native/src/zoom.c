@@ -123,6 +123,22 @@ static int fx_is_zero(const ub_fixed *x)
 
 #define MAX_DIGITS 400
 
+/* What ub_fixed_parse says of a number it cannot read; ub_anchor_parse names the coordinate
+ * with the same words from ANCHOR_ERRORS (static text: no per-thread buffer, which would need
+ * thread-local storage and, on Linux, a link to the dynamic loader). */
+#define FIXED_ERROR_LIST(prefix, suffix)                                                                 \
+    {prefix "has too many digits (at most 400)" suffix, prefix "is not a decimal number" suffix,         \
+     prefix "has an exponent without digits" suffix, prefix "has an exponent out of range" suffix,       \
+     prefix "is out of range (at most 1000 in magnitude)" suffix}
+#define FIXED_ERROR_COUNT 5
+static const char *const FIXED_ERRORS[FIXED_ERROR_COUNT] = FIXED_ERROR_LIST("", "");
+#define ANCHOR_HINT " (write x y z, e.g. '0.6 0.8 0')"
+static const char *const ANCHOR_ERRORS[3][FIXED_ERROR_COUNT] = {
+    FIXED_ERROR_LIST("zoom_anchor: number 1 ", ANCHOR_HINT),
+    FIXED_ERROR_LIST("zoom_anchor: number 2 ", ANCHOR_HINT),
+    FIXED_ERROR_LIST("zoom_anchor: number 3 ", ANCHOR_HINT),
+};
+
 const char *ub_fixed_parse(const char **text, ub_fixed *out)
 {
     const char *s = *text;
@@ -137,7 +153,7 @@ const char *ub_fixed_parse(const char **text, ub_fixed *out)
             if (count == 0 && *s == '0' && point < 0)
                 continue; /* leading zeros of the integer part */
             if (count >= MAX_DIGITS)
-                return "has too many digits (at most 400)";
+                return FIXED_ERRORS[0];
             digits[count++] = (char)(*s - '0');
         } else if (*s == '.' && point < 0) {
             point = count;
@@ -146,7 +162,7 @@ const char *ub_fixed_parse(const char **text, ub_fixed *out)
         }
     }
     if (!seen)
-        return "is not a decimal number";
+        return FIXED_ERRORS[1];
     if (point < 0)
         point = count;
     if (*s == 'e' || *s == 'E') {
@@ -161,14 +177,14 @@ const char *ub_fixed_parse(const char **text, ub_fixed *out)
             edigits++;
         }
         if (!edigits)
-            return "has an exponent without digits";
+            return FIXED_ERRORS[2];
         if (e > 1000)
-            return "has an exponent out of range";
+            return FIXED_ERRORS[3];
         point += esign * e;
     }
     /* Integer part: digits[0..point); at most 4 digits (|x| <= 1e3 is checked by the caller). */
     if (point > 4)
-        return "is out of range (at most 1000 in magnitude)";
+        return FIXED_ERRORS[4];
     uint32_t whole = 0;
     for (int i = 0; i < point; i++)
         whole = 10 * whole + (uint32_t)(i < count ? digits[i] : 0);
@@ -234,10 +250,10 @@ const char *ub_anchor_parse(const char *text, ub_fixed anchor[3])
             return "zoom_anchor must hold three decimal numbers (x y z), e.g. '0.6 0.8 0'";
         const char *err = ub_fixed_parse(&s, &anchor[k]);
         if (err) {
-            static _Thread_local char message[160];
-            snprintf(message, sizeof message, "zoom_anchor: number %d %s (write x y z, e.g. '0.6 0.8 0')", k + 1,
-                     err);
-            return message;
+            for (int e = 0; e < FIXED_ERROR_COUNT; e++)
+                if (err == FIXED_ERRORS[e])
+                    return ANCHOR_ERRORS[k][e];
+            return err;
         }
         if (fabs(ub_fixed_to_double(&anchor[k])) > 1e3)
             return "zoom_anchor: each coordinate must be within [-1000, 1000]";
