@@ -64,3 +64,29 @@ def fractal_scene():
     scene = bpy.context.scene
     scene.render.engine = 'UNBOUND'
     return res, ob, scene
+
+
+def quit_blender():
+    log(step="quit")
+    import addon_utils
+    addon_utils.disable(MODULE, default_set=False)
+    with bpy.context.temp_override(window=window()):
+        bpy.ops.wm.quit_blender()
+
+
+def guarded(step):
+    """A failing step reports and quits: a hanging GUI would only hit the timeout."""
+    def run():
+        try:
+            return step()
+        except Exception as exc:
+            import traceback
+            traceback.print_exc()
+            log(error=repr(exc))
+            quit_blender()
+            return None
+    return run
+
+
+def after(seconds, step):
+    bpy.app.timers.register(guarded(step), first_interval=seconds)

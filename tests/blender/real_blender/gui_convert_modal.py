@@ -21,7 +21,8 @@ import bpy
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gui_common import MODULE, area, fractal_scene, grab, log, region, window  # noqa: E402
+from gui_common import (after, area, fractal_scene, grab, guarded, log, quit_blender, region,  # noqa: E402
+                        window)
 
 OPERATOR = "OBJECT_OT_unbound_convert_to_mesh"
 CANCEL_RESOLUTION = 1024   # seconds of extraction on 2 cores: long enough to cancel midway
@@ -52,32 +53,6 @@ def mesh_digest(ob):
     return dict(name=ob.name, type=ob.type, vertices=len(me.vertices), faces=len(me.polygons),
                 co=hashlib.sha256(co.tobytes()).hexdigest(), loops=hashlib.sha256(loops.tobytes()).hexdigest(),
                 trap=hashlib.sha256(trap.tobytes()).hexdigest())
-
-
-def quit_blender():
-    log(step="quit")
-    import addon_utils
-    addon_utils.disable(MODULE, default_set=False)
-    with bpy.context.temp_override(window=window()):
-        bpy.ops.wm.quit_blender()
-
-
-def guarded(step):
-    """A failing step reports and quits: a hanging GUI would only hit the timeout."""
-    def run():
-        try:
-            return step()
-        except Exception as exc:
-            import traceback
-            traceback.print_exc()
-            log(error=repr(exc))
-            quit_blender()
-            return None
-    return run
-
-
-def after(seconds, step):
-    bpy.app.timers.register(guarded(step), first_interval=seconds)
 
 
 def when(condition, then, timeout, what):

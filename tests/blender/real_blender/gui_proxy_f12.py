@@ -28,7 +28,8 @@ from bpy_extras.view3d_utils import location_3d_to_region_2d
 from mathutils import Euler
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gui_common import MODULE, OUT, area, fractal_scene, grab, log, region, window  # noqa: E402
+import gui_common  # noqa: E402
+from gui_common import MODULE, OUT, after, area, fractal_scene, grab, guarded, log, region, window  # noqa: E402
 
 F12_SAMPLES = 24   # about 3 s with one thread: Blender refreshes the window about every half second
 SCRATCH = tempfile.mkdtemp()
@@ -40,24 +41,6 @@ def mod(name):
 
 def fractal():
     return next(o for o in bpy.data.objects if o.type == 'EMPTY' and o.unbound.is_fractal)
-
-
-def guarded(step):
-    """A failing step reports and quits: a hanging GUI would only hit the timeout."""
-    def run():
-        try:
-            return step()
-        except Exception as exc:
-            import traceback
-            traceback.print_exc()
-            log(error=repr(exc))
-            quit_blender()
-            return None
-    return run
-
-
-def after(seconds, step):
-    bpy.app.timers.register(guarded(step), first_interval=seconds)
 
 
 def redraw():
@@ -330,12 +313,8 @@ def f12_done():
 
 
 def quit_blender():
-    log(step="quit")
-    import addon_utils
-    area('VIEW_3D').spaces.active.shading.type = 'SOLID'
-    addon_utils.disable(MODULE, default_set=False)
-    with bpy.context.temp_override(window=window()):
-        bpy.ops.wm.quit_blender()
+    area('VIEW_3D').spaces.active.shading.type = 'SOLID'   # the proxy's draw handler off first
+    gui_common.quit_blender()
 
 
 def start():
