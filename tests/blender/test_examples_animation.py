@@ -10,6 +10,7 @@ import sys
 
 import numpy as np
 import pytest
+from examples_run import finish, start_example
 from exr import extension_zip, read_exr, read_png
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -26,21 +27,6 @@ def example_cmd(out, frames, python=None, dashdash=False):
     args = ["--out", str(out), "--frames", str(frames[0]), str(frames[1]),
             "--resolution", str(SIZE[0]), str(SIZE[1])]
     return [python or sys.executable, str(EXAMPLE)] + (["--"] if dashdash else []) + args
-
-
-def start_example(cmd, workdir):
-    """Starts the example in workdir with its own Blender user folder; returns the Popen."""
-    user = workdir / "user"
-    (user / "config").mkdir(parents=True, exist_ok=True)
-    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), UNBOUND_EXTENSION=str(extension_zip()))
-    return subprocess.Popen(cmd, cwd=workdir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
-
-
-def finish(proc, timeout=240):
-    out, _ = proc.communicate(timeout=timeout)
-    assert proc.returncode == 0, "example failed (rc %d):\n%s" % (proc.returncode, out[-6000:])
-    return out
 
 
 def frame_files(out, frame):
