@@ -158,7 +158,7 @@ def test_a_second_run_refreshes_the_copy_and_replaces_only_its_nodes(run_bpy):
     assert r["props_excluded"]
 
 
-# Fractal Shadows (bpy_scripts/composite.fractal_shadow): the unit ball (mu = 0) 1.5 above a plane
+# Fractal Shadows (bpy_scripts/composite.fractal_shadow): the unit ball (mu = 0) 1.5 above a matte plane
 # (z = -1.5), a sun with angle 0 (a hard shadow), Cycles direct light only (max bounces 0), 4
 # samples, 120 x 90. A lit diffuse plane is then uniform and a shadowed one black, so the analytic
 # shadow is the plane's points within 1 of the line through the ball's centre along the light:

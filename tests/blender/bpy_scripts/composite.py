@@ -190,6 +190,21 @@ def _shadow_proxy_facts(scene, copy):
     return facts
 
 
+def _matte(name):
+    """A Diffuse BSDF alone: lit by a sun, the same in every direction (5.x's default surface is
+    not: it has a specular layer)."""
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:  # 4.x; 5.x makes it with the material (use_nodes is deprecated)
+        material.use_nodes = True
+    nodes = material.node_tree.nodes
+    for node in [n for n in nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        nodes.remove(node)
+    output = next(n for n in nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    material.node_tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    return material
+
+
 def fractal_shadow(S, mod, width=120, height=90, resolution=128, samples=4):
     """The unit ball (mu = 0) above a plane lit by a sun, Composite with Cycles with Fractal
     Shadows on (run twice), then off, then off with a 256 x 128 smooth UV sphere of radius 1
@@ -203,6 +218,7 @@ def fractal_shadow(S, mod, width=120, height=90, resolution=128, samples=4):
     sun.rotation_euler = (0.5, 0.0, 0.6)
     scene.collection.objects.link(sun)
     bpy.ops.mesh.primitive_plane_add(size=16.0, location=(0.0, 0.0, -1.5))
+    bpy.context.object.data.materials.append(_matte("Matte"))
     assert bpy.ops.scene.unbound_composite_with_cycles(shadow_resolution=resolution) == {'FINISHED'}
     copy = bpy.data.scenes[scene.name + " Cycles"]
     _cycles_settings(copy)
