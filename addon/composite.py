@@ -139,11 +139,6 @@ def shadow_collection(copy, create=False):
     return found
 
 
-def shadow_proxies(copy):
-    collection = shadow_collection(copy)
-    return list(collection.objects) if collection is not None else []
-
-
 def remove_shadow_proxies(copy):
     """Removes the copy's stand-ins, their meshes and materials, and their collection."""
     collection = shadow_collection(copy)
