@@ -10,8 +10,12 @@ scene renders the Cycles scene too (Blender renders every scene a Render Layers 
 writes the composed image. The background is the Unbound scene's (its world colour, or nothing with
 Transparent film): the Cycles scene's film is transparent, so the background is composed once.
 
-Not done: shadows and reflections of one on the other (Cycles does not see the fractal, Unbound
-does not see the meshes); README: Composite with Cycles gives the Convert to Mesh way to get them."""
+Fractal shadows (make_shadow_proxies): the fractal's shadows and reflections on the meshes come from
+a stand-in Cycles does see, in the copy only: each rendered fractal converted to a mesh (the core's
+extraction, as Convert to Mesh) at a modest resolution, invisible to camera rays (Unbound draws the
+fractal itself) and held on the fractal by a Copy Transforms constraint, in a collection of the copy
+alone. A run replaces the stand-ins; their shape is that of the frame the operator ran at.
+Not available: the meshes' shadows and reflections on the fractal (Unbound does not trace meshes)."""
 import bpy
 
 from . import utils
@@ -28,6 +32,11 @@ SHARED_RENDER_SETTINGS = ("resolution_x", "resolution_y", "resolution_percentage
                           "border_max_y", "use_crop_to_border", "fps", "fps_base", "use_multiview",
                           "views_format")
 SHARED_SCENE_SETTINGS = ("frame_start", "frame_end", "frame_step", "frame_current", "camera", "world")
+# The copy's collection of fractal shadow stand-ins, found again by this custom property (its name
+# may have been taken: Blender appends ".001"). Only the copy's Scene Collection holds it.
+SHADOW_COLLECTION = "Unbound Fractal Shadows"
+SHADOW_MARK = "unbound_fractal_shadows"
+SHADOW_SUFFIX = " Shadow"
 
 
 def _pointers(items):
@@ -39,7 +48,7 @@ def _link_same_contents(scene, copy):
     (linked, not duplicated: both scenes show the same data)."""
     source, target = scene.collection, copy.collection
     wanted = _pointers(source.children)
-    for child in [c for c in target.children if c.as_pointer() not in wanted]:
+    for child in [c for c in target.children if c.as_pointer() not in wanted and not c.get(SHADOW_MARK)]:
         target.children.unlink(child)
     present = _pointers(target.children)
     for child in source.children:
@@ -98,6 +107,114 @@ def cycles_scene(scene, view_layer):
         layer.update()
     _copy_layer_collections(view_layer.layer_collection, layer.layer_collection)
     return copy, layer
+
+
+def rendered_fractals(view_layer):
+    """The fractal objects F12 renders in view_layer, by name: not disabled for render themselves,
+    in a collection neither excluded nor disabled for render (nor inside one that is). Instances
+    (collection instances, geometry nodes) are not among them."""
+    found = {}
+
+    def walk(layer_collection):
+        if layer_collection.exclude or layer_collection.collection.hide_render:
+            return
+        for ob in layer_collection.collection.objects:
+            if utils.is_fractal(ob) and not ob.hide_render:
+                found[ob.name_full] = ob
+        for child in layer_collection.children:
+            walk(child)
+
+    walk(view_layer.layer_collection)
+    return [found[name] for name in sorted(found)]
+
+
+def shadow_collection(copy, create=False):
+    """The copy's collection of fractal shadow stand-ins (SHADOW_MARK); None if there is none and
+    create is False."""
+    found = next((c for c in copy.collection.children if c.get(SHADOW_MARK)), None)
+    if found is None and create:
+        found = bpy.data.collections.new(SHADOW_COLLECTION)
+        found[SHADOW_MARK] = True
+        copy.collection.children.link(found)
+    return found
+
+
+def remove_shadow_proxies(copy):
+    """Removes the copy's stand-ins, their meshes and materials, and their collection."""
+    collection = shadow_collection(copy)
+    if collection is None:
+        return
+    for ob in list(collection.objects):
+        mesh = ob.data
+        materials = [m for m in mesh.materials if m is not None]
+        bpy.data.objects.remove(ob)
+        if mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+        for material in materials:
+            if material.users == 0:
+                bpy.data.materials.remove(material)
+    bpy.data.collections.remove(collection)
+
+
+def _proxy_material(name, color):
+    """The fractal's Color on a Principled BSDF: what its stand-in shows in reflections and bounces."""
+    material = bpy.data.materials.new(name)
+    material.diffuse_color = tuple(color) + (1.0,)
+    if material.node_tree is None:  # 4.x; 5.x makes it with the material (use_nodes is deprecated)
+        material.use_nodes = True
+    bsdf = material.node_tree.nodes.get("Principled BSDF")
+    if bsdf is not None:
+        bsdf.inputs["Base Color"].default_value = tuple(color) + (1.0,)
+    return material
+
+
+def make_shadow_proxies(copy, fractals, depsgraph, resolution):
+    """Replaces the copy's stand-ins by one per fractal: its surface as a mesh at `resolution`
+    lattice cells (convert.extract, the render's surface), invisible to camera rays but casting
+    shadows and seen in reflections and indirect light, on the fractal by a Copy Transforms
+    constraint (it follows the fractal's moves; its shape is this frame's). Returns them.
+    Nothing is left behind when an extraction fails."""
+    from . import convert  # here: convert imports engine, which imports this module
+    remove_shadow_proxies(copy)
+    if not fractals:
+        return []
+    collection = shadow_collection(copy, create=True)
+    try:
+        for ob in fractals:
+            surface = convert.extract(ob, depsgraph, resolution, min_faces=0)
+            name = ob.name + SHADOW_SUFFIX
+            mesh = convert.build_mesh(name, surface, bare=True)  # shadows need no trap attributes
+            mesh.shade_smooth()
+            mesh.materials.append(_proxy_material(name, ob.unbound.color))
+            proxy = bpy.data.objects.new(name, mesh)
+            collection.objects.link(proxy)
+            proxy.visible_camera = False
+            proxy.hide_select = True
+            proxy.matrix_world = ob.matrix_world
+            follow = proxy.constraints.new('COPY_TRANSFORMS')
+            follow.target = ob
+    except BaseException:
+        remove_shadow_proxies(copy)
+        raise
+    return list(collection.objects)
+
+
+def keyframed_shape(ob):
+    """Whether an F-curve or driver animates one of fractal ob's settings (ob.unbound), which its
+    stand-in's shape does not follow (its transform it does)."""
+    animation = ob.animation_data
+    if animation is None:
+        return False
+    curves = list(animation.drivers)
+    action = animation.action
+    if action is not None:
+        if hasattr(action, "fcurves"):  # 4.x; 5.x has only the layered API
+            curves += list(action.fcurves)
+        else:
+            from bpy_extras import anim_utils
+            bag = anim_utils.action_get_channelbag_for_slot(action, animation.action_slot)
+            curves += list(bag.fcurves) if bag is not None else []
+    return any(curve.data_path.startswith("unbound.") for curve in curves)
 
 
 def build_nodes(scene, view_layer, copy, copy_layer):

@@ -9,7 +9,7 @@ from mathutils import Euler, Matrix, Vector
 from bl_operators.presets import AddPresetBase
 from bl_ui.utils import PresetPanel
 
-from . import composite, export, passes, utils
+from . import composite, convert, export, passes, utils
 from .properties import (FRACTAL_KINDS, MU_STEP, UnboundObjectSettings, UnboundSceneSettings, _sync_display_size,
                          display_radius)
 
@@ -1181,11 +1181,21 @@ class UNBOUND_OT_setup_compositing(bpy.types.Operator):
 class UNBOUND_OT_composite_with_cycles(bpy.types.Operator):
     """Render the scene's meshes, curves and other objects Unbound does not render with Cycles, in a
     linked copy of this scene ("<scene> Cycles"), and combine them with the fractal by depth in this
-    scene's compositor (Z Combine): F12 here renders both. Run it again after adding objects
-    directly to the Scene Collection"""
+    scene's compositor (Z Combine): F12 here renders both, with the fractals' shadows on the meshes.
+    Run it again after adding objects directly to the Scene Collection or changing a fractal"""
     bl_idname = "scene.unbound_composite_with_cycles"
     bl_label = "Composite with Cycles"
     bl_options = {'REGISTER', 'UNDO'}
+
+    fractal_shadows: bpy.props.BoolProperty(
+        name="Fractal Shadows", default=True,
+        description="Cycles renders the fractals' shadows and reflections on the meshes: in the Cycles scene "
+        "only, each fractal as a mesh invisible to the camera (Convert to Mesh at Shadow Resolution), of the "
+        "current frame's shape. Meshes cast no shadow on the fractal: Unbound does not trace meshes")
+    shadow_resolution: bpy.props.IntProperty(
+        name="Shadow Resolution", default=128, min=8, max=2048,
+        description="Lattice cells across each fractal's bounding ball for its shadow mesh; time and memory "
+        "grow with its square")
 
     def execute(self, context):
         scene = context.scene
@@ -1196,16 +1206,34 @@ class UNBOUND_OT_composite_with_cycles(bpy.types.Operator):
             scene.render.engine = utils.ENGINE_ID
         view_layer = context.view_layer
         view_layer.unbound.use_pass_depth = True  # Z Combine reads both scenes' Depth
+        fractals = composite.rendered_fractals(view_layer)
         try:
             copy, copy_layer = composite.cycles_scene(scene, view_layer)
             composite.build_nodes(scene, view_layer, copy, copy_layer)
-        except RuntimeError as exc:
+            shadows = composite.make_shadow_proxies(copy, fractals if self.fractal_shadows else [],
+                                                    context.evaluated_depsgraph_get(), self.shadow_resolution)
+        except convert.CONVERT_ERRORS as exc:  # the core's and Blender's refusals, a fractal's bad settings
             self.report({'ERROR'}, "Unbound: %s" % exc)
             return {'CANCELLED'}
-        count = sum(1 for ob in copy.objects if ob.type in composite.GEOMETRY_TYPES)
-        self.report({'INFO'}, "Unbound: scene '%s' renders %d object%s with Cycles; F12 here combines them with "
-                    "the fractal by depth" % (copy.name, count, "" if count == 1 else "s"))
+        self.report({'INFO'}, self.summary(copy, fractals, shadows, scene.frame_current))
         return {'FINISHED'}
+
+    def summary(self, copy, fractals, shadows, frame):
+        proxies = {p.as_pointer() for p in shadows}
+        count = sum(1 for ob in copy.objects
+                    if ob.type in composite.GEOMETRY_TYPES and ob.as_pointer() not in proxies)
+        text = "Unbound: scene '%s' renders %d object%s with Cycles" % (copy.name, count, "" if count == 1 else "s")
+        if shadows:
+            text += " and the shadows of %d fractal%s (each a mesh of %d cells, invisible to the camera)" % (
+                len(shadows), "" if len(shadows) == 1 else "s", self.shadow_resolution)
+            keyframed = [ob.name for ob in fractals if composite.keyframed_shape(ob)]
+            if keyframed:
+                text += "; keyframed (%s): the shadow keeps frame %d's shape, run again on another frame" % (
+                    ", ".join(keyframed), frame)
+        elif fractals:
+            text += "; no fractal shadows (Fractal Shadows off)"
+        return text + "; F12 here combines them with the fractal by depth. Meshes cast no shadow on the fractal: " \
+            "Unbound does not trace meshes"
 
 
 def menu_add(self, context):

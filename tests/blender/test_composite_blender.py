@@ -19,10 +19,12 @@ ball; the background is 1e10 in both. The front cube hides the ball in 659 non-e
 ball hides the back cube in 941. Each render pair (Composite with Cycles + the reference) takes
 about 5 s here.
 
-Not compared: shading (Cycles' and Unbound's lights differ) and shadows of one on the other, which
-the set-up does not give (README: Composite with Cycles).
+Not compared here: shading (Cycles' and Unbound's lights differ). The fractal's shadow on the
+meshes (Fractal Shadows: a stand-in mesh in the Cycles scene) is tested below against the same UV
+sphere; the meshes' shadow on the fractal is not available (Unbound does not trace meshes).
 """
 import numpy as np
+import pytest
 
 COVERAGE = 0.5          # alpha above which a pixel counts as covered
 DEPTH_REL_TOL = 1e-3    # |composite - reference| / reference on covered non-edge pixels
@@ -151,5 +153,115 @@ def test_a_second_run_refreshes_the_copy_and_replaces_only_its_nodes(run_bpy):
     assert r["scenes"] == ["Scene", "Scene Cycles"]
     assert r["engine"] == "CYCLES" and r["transparent"] and not r["unbound_transparent"]
     assert r["camera"] == "Camera" and r["z_pass"] and r["depth_pass"]
-    assert r["objects"] == ["Back", "Camera", "Front", "Late", "Quaternion Julia", "Sun"], r["objects"]
+    assert r["objects"] == ["Back", "Camera", "Front", "Late", "Quaternion Julia", "Quaternion Julia Shadow",
+                            "Sun"], r["objects"]
     assert r["props_excluded"]
+
+
+# Fractal Shadows (bpy_scripts/composite.fractal_shadow): the unit ball (mu = 0) 1.5 above a matte plane
+# (z = -1.5), a sun with angle 0 (a hard shadow), Cycles direct light only (max bounces 0), 4
+# samples, 120 x 90. A lit diffuse plane is then uniform and a shadowed one black, so the analytic
+# shadow is the plane's points within 1 of the line through the ball's centre along the light:
+# inside 0.9 every pixel must be black, beyond 1.1 lit. Measured (bpy 4.2): 864 pixels inside, 9479
+# beyond; the stand-in (128 cells, 461904 faces, vertices at radius 1.0002: the surface at the
+# render's epsilon 1e-4) gives the UV sphere's image exactly on every pixel farther than 1.5
+# pixel footprints (the distance to the neighbouring pixels' points on the plane) from the
+# outline, and 1068 against 1067 shadowed pixels (darker than half the lit plane) in all; 16
+# samples: 1075 against 1072. Each render 0.5 s, each run of the operator 0.6 s here.
+SHADOW_INSIDE, SHADOW_OUTSIDE = 0.9, 1.1  # distances from the shadow's axis, in ball radii
+BLACK, LIT = 0.01, 0.99                    # fractions of the lit plane's luminance
+OUTLINE_FOOTPRINTS = 1.5                   # pixels this near the outline (in footprints) may differ
+MATCH_TOL = 0.01                           # |stand-in - UV sphere| / lit elsewhere
+SHADOWED_COUNT_TOL = 0.01                  # relative difference of the shadowed pixel counts
+PLANE_Z = -1.5
+
+
+def luminance(rgba):
+    return rgba[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def shadow_geometry(position, light_travel):
+    """Per pixel: the distance of the plane point it shows from the shadow's axis (the line through
+    the ball's centre along the light), and its footprint (the largest distance to the next
+    pixel's point, across and down)."""
+    d = np.asarray(light_travel) / np.linalg.norm(light_travel)
+    along = position @ d
+    axis_distance = np.linalg.norm(position - along[..., None] * d, axis=-1)
+    footprint = np.zeros(position.shape[:2])
+    across = np.linalg.norm(position[:, 1:] - position[:, :-1], axis=-1)
+    down = np.linalg.norm(position[1:] - position[:-1], axis=-1)
+    footprint[:, :-1] = np.maximum(footprint[:, :-1], across)
+    footprint[:, 1:] = np.maximum(footprint[:, 1:], across)
+    footprint[:-1] = np.maximum(footprint[:-1], down)
+    footprint[1:] = np.maximum(footprint[1:], down)
+    return axis_distance, footprint
+
+
+@pytest.fixture
+def fractal_shadow(run_bpy, tmp_path):
+    r = run_bpy("composite.fractal_shadow", timeout=300)
+    print("operator %.2f s, render %.2f s" % (r["operator_seconds"], r["render_seconds"]))
+    return r, dict(np.load(tmp_path / "shadow.npz"))
+
+
+def test_fractal_shadow_stand_in(fractal_shadow):
+    """One stand-in, in the Cycles scene only, invisible to the camera but casting shadows and seen
+    in reflections, on the fractal (its world matrix; moved with it), its vertices on the unit
+    sphere; a second run replaces it; with Fractal Shadows off it is gone with its collection."""
+    r, _ = fractal_shadow
+    (proxy,) = r["first"]
+    assert proxy["name"] == "Quaternion Julia Shadow" and proxy["in_copy"] and not proxy["in_unbound_scene"]
+    assert not proxy["camera"] and proxy["shadow"] and proxy["diffuse"] and proxy["glossy"]
+    assert proxy["follows"] == ["Quaternion Julia"] and proxy["world_is_fractal"]
+    assert abs(proxy["radius_min"] - 1.0) < 1e-3 and abs(proxy["radius_max"] - 1.0) < 1e-3, proxy
+    assert r["second"] == r["first"] and r["meshes_after_two_runs"] == r["meshes_after_one_run"]
+    assert r["moved_with"] == pytest.approx([0.3, -0.2, 0.1], abs=1e-6)
+    assert r["off_facts"] == [] and r["collections_off"] == []
+    assert r["meshes_off"] == r["meshes_after_one_run"] - 1
+
+
+def test_fractal_shadow_on_the_plane_matches_a_mesh_sphere(fractal_shadow):
+    r, px = fractal_shadow
+    position = px["on_position"]
+    plane = (px["on_rgba"][..., 3] > 0.999) & (np.abs(position[..., 2] - PLANE_Z) < 1e-3)
+    axis_distance, footprint = shadow_geometry(position, r["light_travel"])
+    inside, outside = plane & (axis_distance < SHADOW_INSIDE), plane & (axis_distance > SHADOW_OUTSIDE)
+    assert inside.sum() > 500 and outside.sum() > 5000, (inside.sum(), outside.sum())
+    on, off, sphere = (luminance(px[k + "_rgba"]) for k in ("on", "off", "sphere"))
+    lit = np.median(off[plane])
+    assert lit > 0.1
+
+    # Invisible to the camera: the camera rays hit what they hit without it.
+    for key in ("off", "sphere"):
+        assert np.array_equal(px[key + "_position"], position) and np.array_equal(px[key + "_rgba"][..., 3],
+                                                                                 px["on_rgba"][..., 3])
+    # Off: no shadow at all. On: the analytic shadow, black inside and lit outside.
+    assert (off[plane] >= LIT * lit).all()
+    print("on: inside max %.4f, outside min %.4f of the lit plane" % (on[inside].max() / lit, on[outside].min() / lit))
+    assert (on[inside] <= BLACK * lit).all() and (on[outside] >= LIT * lit).all()
+
+    # The stand-in's shadow is the UV sphere's, but within a pixel or so of the outline.
+    away = plane & (np.abs(axis_distance - 1.0) > OUTLINE_FOOTPRINTS * footprint)
+    difference = np.abs(on - sphere) / lit
+    shadowed_on, shadowed_sphere = (plane & (on < 0.5 * lit)).sum(), (plane & (sphere < 0.5 * lit)).sum()
+    print("stand-in vs UV sphere: max difference %.4f on %d pixels away from the outline, %.4f near it; "
+          "shadowed pixels %d vs %d" % (difference[away].max(), away.sum(), difference[plane & ~away].max(),
+                                         shadowed_on, shadowed_sphere))
+    assert difference[away].max() <= MATCH_TOL
+    assert abs(shadowed_on - shadowed_sphere) <= SHADOWED_COUNT_TOL * shadowed_sphere
+
+
+def test_fractal_shadow_reports(run_bpy):
+    """The info message says what is made and what is not (a mesh's shadow on the fractal); a
+    keyframed fractal's shadow is named as the current frame's shape; a fractal the core refuses
+    is a clear error and leaves no stand-in behind."""
+    r = run_bpy("composite.shadow_reports")
+    infos = [line for line in r["_output"].splitlines() if line.startswith("Info: Unbound:")]
+    assert infos == ["Info: Unbound: scene 'Scene Cycles' renders 2 objects with Cycles and the shadows of 1 fractal "
+                     "(each a mesh of 32 cells, invisible to the camera); keyframed (Quaternion Julia): the shadow "
+                     "keeps frame 4's shape, run again on another frame; F12 here combines them with the fractal by "
+                     "depth. Meshes cast no shadow on the fractal: Unbound does not trace meshes"], infos
+    assert r["keyframed"] == ["Quaternion Julia Shadow"]
+    assert r["error"] == ("Error: Unbound: fractal 'Quaternion Julia': an IFS needs at least one map: add one, or "
+                          "pick a preset"), r["error"]
+    assert r["left"] == [] and r["meshes"] == ["Cube", "Cube.001"], (r["left"], r["meshes"])

@@ -160,3 +160,136 @@ def refresh(S, mod):
              .children["Props"].exclude, z_pass=copy.view_layers[0].use_pass_z,
              depth_pass=scene.view_layers[0].unbound.use_pass_depth,
              output_fed_by=[l.from_node.name for n in output for l in tree.links if l.to_node == n])
+
+
+def _render_scene(S, scene, name):
+    """F12 of `scene` (not necessarily the context's), every pass in a 32-bit multilayer EXR."""
+    S.exr_output(scene)
+    path = S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / name
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True, scene=scene.name)
+    px = S.read_exr(path)
+    return (np.stack([px["ViewLayer.Combined." + c] for c in "RGBA"], axis=-1),
+            np.stack([px["ViewLayer.Position." + c] for c in "XYZ"], axis=-1))
+
+
+def _shadow_proxy_facts(scene, copy):
+    """What the copy's stand-ins are: names, ray visibility, where they live, their vertices' radii."""
+    import mathutils
+    proxies = [o for c in copy.collection.children if c.get("unbound_fractal_shadows") for o in c.objects]
+    facts = []
+    for proxy in proxies:
+        radii = np.linalg.norm(np.array([v.co[:] for v in proxy.data.vertices]), axis=1)
+        facts.append(dict(name=proxy.name, camera=proxy.visible_camera, shadow=proxy.visible_shadow,
+                          diffuse=proxy.visible_diffuse, glossy=proxy.visible_glossy,
+                          in_unbound_scene=proxy.name in scene.objects, in_copy=proxy.name in copy.objects,
+                          follows=[c.target.name for c in proxy.constraints if c.type == 'COPY_TRANSFORMS'],
+                          radius_min=float(radii.min()), radius_max=float(radii.max()),
+                          faces=len(proxy.data.polygons), world_is_fractal=proxy.matrix_world ==
+                          mathutils.Matrix(scene.objects["Quaternion Julia"].matrix_world)))
+    return facts
+
+
+def _matte(name):
+    """A Diffuse BSDF alone: lit by a sun, the same in every direction (5.x's default surface is
+    not: it has a specular layer)."""
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:  # 4.x; 5.x makes it with the material (use_nodes is deprecated)
+        material.use_nodes = True
+    nodes = material.node_tree.nodes
+    for node in [n for n in nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        nodes.remove(node)
+    output = next(n for n in nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    material.node_tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    return material
+
+
+def fractal_shadow(S, mod, width=120, height=90, resolution=128, samples=4):
+    """The unit ball (mu = 0) above a plane lit by a sun, Composite with Cycles with Fractal
+    Shadows on (run twice), then off, then off with a 256 x 128 smooth UV sphere of radius 1
+    invisible to the camera in the Cycles scene in place of the stand-in: the Cycles scene's image
+    and Position pass each time, for the test to compare. Cycles: direct light only."""
+    scene = S.empty_scene(width, height, "UNBOUND")
+    S.add_camera(scene, location=(0.0, -3.5, 2.0), target=(-0.45, 0.65, -1.5), lens=35.0)
+    ball = S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    sun.data.energy, sun.data.angle = 3.0, 0.0  # a hard shadow: its outline is the ball's exactly
+    sun.rotation_euler = (0.5, 0.0, 0.6)
+    scene.collection.objects.link(sun)
+    bpy.ops.mesh.primitive_plane_add(size=16.0, location=(0.0, 0.0, -1.5))
+    bpy.context.object.data.materials.append(_matte("Matte"))
+    assert bpy.ops.scene.unbound_composite_with_cycles(shadow_resolution=resolution) == {'FINISHED'}
+    copy = bpy.data.scenes[scene.name + " Cycles"]
+    _cycles_settings(copy)
+    copy.cycles.samples = samples
+    copy.cycles.max_bounces = 0  # direct light: a lit diffuse plane is uniform, a shadowed one black
+    copy.view_layers[0].use_pass_position = True
+    first = _shadow_proxy_facts(scene, copy)
+    meshes_after_one_run = len(bpy.data.meshes)
+    started = time.perf_counter()
+    assert bpy.ops.scene.unbound_composite_with_cycles(shadow_resolution=resolution) == {'FINISHED'}
+    operator_seconds = time.perf_counter() - started
+    second = _shadow_proxy_facts(scene, copy)
+    meshes_after_two_runs = len(bpy.data.meshes)
+    started = time.perf_counter()
+    on = _render_scene(S, copy, "on.exr")
+    render_seconds = time.perf_counter() - started
+
+    # Moved, the fractal takes its stand-in along (the Copy Transforms constraint).
+    ball.location = (0.3, -0.2, 0.1)
+    depsgraph = copy.view_layers[0].depsgraph
+    depsgraph.update()
+    proxy = bpy.data.objects[second[0]["name"]]
+    moved_with = list(proxy.evaluated_get(depsgraph).matrix_world.translation)
+    ball.location = (0.0, 0.0, 0.0)
+
+    assert bpy.ops.scene.unbound_composite_with_cycles(fractal_shadows=False) == {'FINISHED'}
+    off_facts = _shadow_proxy_facts(scene, copy)
+    collections_off = sorted(c.name for c in copy.collection.children)
+    meshes_off = len(bpy.data.meshes)
+    off = _render_scene(S, copy, "off.exr")
+
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
+    sphere = bpy.context.object
+    bpy.ops.object.shade_smooth()
+    for collection in list(sphere.users_collection):
+        collection.objects.unlink(sphere)
+    copy.collection.objects.link(sphere)  # in the Cycles scene only, as the stand-in
+    sphere.visible_camera = False
+    reference = _render_scene(S, copy, "sphere.exr")
+
+    out = {}
+    for key, (rgba, position) in (("on", on), ("off", off), ("sphere", reference)):
+        out[key + "_rgba"], out[key + "_position"] = rgba, position
+    np.savez(S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / "shadow.npz", **out)
+    from mathutils import Vector
+    light_travel = sun.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))
+    S.report(first=first, second=second, meshes_after_one_run=meshes_after_one_run,
+             meshes_after_two_runs=meshes_after_two_runs, meshes_off=meshes_off,
+             off_facts=off_facts, collections_off=collections_off, moved_with=moved_with,
+             light_travel=list(light_travel), operator_seconds=operator_seconds, render_seconds=render_seconds)
+
+
+def shadow_reports(S, mod):
+    """Composite with Cycles on a keyframed fractal (its info message, stdout), then on one the core
+    refuses (an IFS without maps: the error, and no stand-in left in the Cycles scene)."""
+    scene = _scene(S, 40, 30)
+    ball = scene.objects["Quaternion Julia"]
+    for frame, mu in ((1, (0.0, 0.0, 0.0, 0.0)), (10, (-0.2, 0.6, 0.0, 0.0))):
+        ball.unbound.mu = mu
+        ball.keyframe_insert("unbound.mu", frame=frame)
+    scene.frame_set(4)
+    assert bpy.ops.scene.unbound_composite_with_cycles(shadow_resolution=32) == {'FINISHED'}
+    copy = bpy.data.scenes[scene.name + " Cycles"]
+    keyframed = [o.name for c in copy.collection.children if c.get("unbound_fractal_shadows") for o in c.objects]
+    ball.animation_data_clear()
+    ball.unbound.kind = 'IFS'
+    ball.unbound.ifs_maps.clear()
+    try:
+        bpy.ops.scene.unbound_composite_with_cycles()
+        error = None
+    except RuntimeError as exc:
+        error = str(exc).strip().splitlines()[0]
+    S.report(keyframed=keyframed, error=error, left=[c.name for c in copy.collection.children],
+             meshes=sorted(m.name for m in bpy.data.meshes))
