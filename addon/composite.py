@@ -158,10 +158,8 @@ def remove_shadow_proxies(copy):
 
 def _proxy_material(name, color):
     """The fractal's Color on a Principled BSDF: what its stand-in shows in reflections and bounces."""
-    material = bpy.data.materials.new(name)
+    material = utils.new_node_material(name)
     material.diffuse_color = tuple(color) + (1.0,)
-    if material.node_tree is None:  # 4.x; 5.x makes it with the material (use_nodes is deprecated)
-        material.use_nodes = True
     bsdf = material.node_tree.nodes.get("Principled BSDF")
     if bsdf is not None:
         bsdf.inputs["Base Color"].default_value = tuple(color) + (1.0,)

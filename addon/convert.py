@@ -61,8 +61,7 @@ def trap_material(name="Unbound Trap"):
     mat = bpy.data.materials.get(name)
     if mat is not None:
         return mat
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    mat = utils.new_node_material(name)
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     bsdf = nodes.get("Principled BSDF")
     attr = nodes.new("ShaderNodeAttribute")
@@ -484,8 +483,7 @@ def volume_material(kind):
     mat = bpy.data.materials.get(name)
     if mat is not None:
         return mat
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    mat = utils.new_node_material(name)
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     for node in [n for n in nodes if n.type != 'OUTPUT_MATERIAL']:
         nodes.remove(node)

@@ -32,3 +32,12 @@ def compositor_tree(scene, create=False):
     if create:
         scene.use_nodes = True
     return scene.node_tree if scene.use_nodes else None
+
+
+def new_node_material(name):
+    """A new material with its node tree (Principled BSDF and output). 4.x makes the tree on
+    use_nodes; 5.x makes it with the material and deprecates use_nodes."""
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:
+        material.use_nodes = True
+    return material
