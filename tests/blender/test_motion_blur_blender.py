@@ -157,3 +157,15 @@ def test_esc_keeps_the_blurred_samples_done(run_bpy):
     assert r["stats"]["cancelled"] and r["breaks"] >= 1 and 3 <= r["done"] <= 5, r["stats"]
     assert len(r["channels"]) >= 12 and all(r["identical"].values()), r["diffs"]
     assert r["frame"] == [1, 0.0], r["frame"]
+
+
+def test_zero_shutter_curve_refused_and_stereo_blurred(run_bpy):
+    """A shutter curve at zero everywhere lets no light in: F12 fails with a message saying where
+    to fix it, and no file is written. Stereo 3D with blur: each eye blurred (differs from its
+    unblurred render), the eyes differ, the frame restored."""
+    r = run_bpy("motion_blur.refusals_and_stereo")
+    assert r["zero_curve"] == ["Error: Unbound: the motion blur's shutter curve is zero everywhere: no light reaches "
+                               "the film (Render Properties > Motion Blur > Shutter Curve)", False], r["zero_curve"]
+    assert r["views"] == ["ViewLayer.Combined.left.A", "ViewLayer.Combined.right.A"], r["views"]
+    assert r["views_differ"] and r["blur_changes"] == [True, True], r
+    assert r["frame"] == [1, 0.0], r["frame"]

@@ -162,3 +162,32 @@ def same_bits_without_motion(S, mod, size, samples):
     S.report(identical=identical, channels=len(plain),
              one_sample_at_middle=all(np.array_equal(one_sample[k], at_middle[k]) for k in one_sample),
              one_sample_at_frame=all(np.array_equal(one_sample[k], at_frame[k]) for k in one_sample))
+
+
+def refusals_and_stereo(S, mod):
+    """A shutter curve that is zero everywhere: F12 fails with the message and writes no file.
+    Stereo 3D with blur (a moving fractal, 4 samples): both views render, each differs from its
+    unblurred self, and the frame is restored."""
+    scene = S.empty_scene(64, 48)
+    S.add_camera(scene)
+    ob = S.add_fractal(max_iterations=12)
+    keyframed(S, ob, "location", 0, {0: -0.4, 2: 0.4})
+    scene.frame_set(FRAME)
+    scene.unbound.samples = 4
+    scene.render.use_motion_blur = True
+    shutter_curve(scene, [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0)])
+    zero_curve = S.attempt(scene, "zero_curve.png")
+    shutter_curve(scene, [(0.0, 1.0), (0.5, 1.0), (1.0, 1.0)])
+    scene.render.use_multiview = True
+    scene.render.views_format = 'STEREO_3D'
+    scene.render.film_transparent = True
+    scene.camera.data.stereo.interocular_distance = 0.2
+    S.exr_output(scene)
+    scene.render.image_settings.views_format = 'MULTIVIEW'
+    blurred = S.render_to_exr(scene, "stereo_blurred.exr")
+    scene.render.use_motion_blur = False
+    sharp = S.render_to_exr(scene, "stereo_sharp.exr")
+    alpha = {k: v for k, v in blurred.items() if k.endswith(".A") and "Combined" in k}
+    S.report(zero_curve=zero_curve, views=sorted(alpha), frame=[scene.frame_current, scene.frame_subframe],
+             views_differ=bool(not np.array_equal(*[alpha[k] for k in sorted(alpha)][:2])) if len(alpha) > 1 else None,
+             blur_changes=[bool(not np.array_equal(alpha[k], sharp[k])) for k in sorted(alpha)])
