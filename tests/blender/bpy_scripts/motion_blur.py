@@ -182,12 +182,20 @@ def refusals_and_stereo(S, mod):
     scene.render.views_format = 'STEREO_3D'
     scene.render.film_transparent = True
     scene.camera.data.stereo.interocular_distance = 0.2
+    # One file per eye (the _L and _R suffixes): 5.x writes a multi-view EXR as parts whose
+    # channels do not name the view.
     S.exr_output(scene)
-    scene.render.image_settings.views_format = 'MULTIVIEW'
-    blurred = S.render_to_exr(scene, "stereo_blurred.exr")
+    scene.render.image_settings.views_format = 'INDIVIDUAL'
+
+    def eyes(name):
+        folder = S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"])
+        scene.render.filepath = str(folder / (name + ".exr"))
+        bpy.ops.render.render(write_still=True)  # Blender writes NAME_L.exr and NAME_R.exr
+        return [S.read_exr(folder / ("%s_%s.exr" % (name, eye)))["ViewLayer.Combined.A"] for eye in "LR"]
+
+    blurred = eyes("stereo_blurred")
     scene.render.use_motion_blur = False
-    sharp = S.render_to_exr(scene, "stereo_sharp.exr")
-    alpha = {k: v for k, v in blurred.items() if k.endswith(".A") and "Combined" in k}
-    S.report(zero_curve=zero_curve, views=sorted(alpha), frame=[scene.frame_current, scene.frame_subframe],
-             views_differ=bool(not np.array_equal(*[alpha[k] for k in sorted(alpha)][:2])) if len(alpha) > 1 else None,
-             blur_changes=[bool(not np.array_equal(alpha[k], sharp[k])) for k in sorted(alpha)])
+    sharp = eyes("stereo_sharp")
+    S.report(zero_curve=zero_curve, frame=[scene.frame_current, scene.frame_subframe],
+             views_differ=bool(not np.array_equal(*blurred)),
+             blur_changes=[bool(not np.array_equal(b, s)) for b, s in zip(blurred, sharp)])
