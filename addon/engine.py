@@ -7,7 +7,7 @@ import traceback
 
 import numpy as np
 
-from . import composite, export, passes, utils
+from . import composite, export, motion_blur, passes, utils
 from .export import RenderError
 
 # Counters of the most recent render in this process (rays, steps, iterations, out_of_steps, seconds,
@@ -280,9 +280,43 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
 
 def _render(engine, depsgraph):
     scene = depsgraph.scene
+    # Motion blur: each sample at its own time within the shutter (motion_blur.py); the scene is
+    # evaluated there and back at the frame's own time afterwards, whatever happened in between.
+    times = None
+    if motion_blur.blur_enabled(scene, depsgraph.view_layer):
+        times = motion_blur.sample_times(scene, max(int(scene.unbound.samples), 1))
+    frame, subframe = scene.frame_current, scene.frame_subframe
+    try:
+        _render_frame(engine, depsgraph, times)
+    finally:
+        if times is not None:
+            engine.frame_set(frame, subframe)
+
+
+def scene_at(engine, depsgraph, when, width, height, samples):
+    """(camera, fractal objects, shading) of the scene evaluated at scene time `when`: one motion-
+    blurred sample's, through the same export as the frame's own. The sample count stays the
+    frame's (the core divides the sum by it), should it be keyframed too."""
+    motion_blur.set_time(engine, when)
+    shading = export.shading_description(depsgraph)
+    shading["samples"] = samples
+    return export.camera_description(engine, depsgraph, width, height), export.fractal_objects(depsgraph), shading
+
+
+def _render_frame(engine, depsgraph, times):
+    """One frame; `times`: each sample's scene time with motion blur, else None."""
+    scene = depsgraph.scene
     view_layer = depsgraph.view_layer
     core = utils.native()
     width, height, window = export.image_window(scene)
+    frame = scene.frame_current  # the frame's own, before a one-sample render moves to the shutter's middle
+    blur_seconds = 0.0  # evaluating and exporting the scene at the samples' times
+    if times is not None and len(times) == 1:
+        # One sample has one time: the shutter's median (a blurred render's first sample), unblurred.
+        engine.report({'WARNING'}, "Unbound: motion blur needs 2 or more samples (Render Properties > Unbound > "
+                                   "Samples); this frame was rendered unblurred at the shutter's middle")
+        if times[0] != scene.frame_current + scene.frame_subframe:
+            motion_blur.set_time(engine, times[0])
     objects = export.fractal_objects(depsgraph)
     shading = export.shading_description(depsgraph)
     camera = export.camera_description(engine, depsgraph, width, height)  # checks the camera first
@@ -291,7 +325,6 @@ def _render(engine, depsgraph):
     views = [v.name for v in scene.render.views if v.use] if scene.render.use_multiview else [""]
     samples = int(shading.get("samples", 1))
     memory_preflight(w, h, wanted, max(len(views), 1), samples)
-    frame = scene.frame_current
     label = "Frame %d | %s" % (frame, view_layer.name)
     engine.update_stats("", "Unbound | %s | %d fractal object%s" % (label, len(objects), "" if len(objects) == 1 else "s"))
     # Never silent: meshes and other objects only Cycles renders are named once per render.
@@ -351,6 +384,11 @@ def _render(engine, depsgraph):
                 if sample:
                     for n in summed:
                         np.copyto(backup[n], buffers[n])
+                if times is not None:
+                    t0 = time.perf_counter()
+                    camera, objects, options["shading"] = scene_at(engine, depsgraph, times[sample], width, height,
+                                                                   samples)
+                    blur_seconds += time.perf_counter() - t0
 
                 def poll(fraction, index=index, sample=sample):
                     return progress.update(index, sample, fraction)
@@ -378,7 +416,8 @@ def _render(engine, depsgraph):
             write(view, done)
             if cancelled:
                 break
-        stats = dict(stats, cancelled=cancelled, samples_done=done, camera_rays=camera_rays, **totals)
+        stats = dict(stats, cancelled=cancelled, samples_done=done, camera_rays=camera_rays,
+                     motion_blur_seconds=blur_seconds, **totals)
         LAST_STATS.clear()
         LAST_STATS.update(stats)
         keep = True

@@ -284,6 +284,45 @@ class UNBOUND_PT_render(UnboundPanel, bpy.types.Panel):
         layout.operator("scene.unbound_composite_with_cycles", icon='SCENE_DATA')
 
 
+class UNBOUND_PT_motion_blur(UnboundPanel, bpy.types.Panel):
+    """Blender's motion blur settings that Unbound reads (motion_blur.py), laid out as Cycles does"""
+    bl_label = "Motion Blur"
+    bl_context = "render"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.render, "use_motion_blur", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        rd = context.scene.render
+        layout.active = rd.use_motion_blur
+        col = layout.column()
+        col.prop(rd, "motion_blur_position", text="Position")
+        col.prop(rd, "motion_blur_shutter")
+        if context.scene.unbound.samples < 2:
+            col.label(text="Blur needs 2 or more samples", icon='INFO')
+
+
+class UNBOUND_PT_motion_blur_curve(UnboundPanel, bpy.types.Panel):
+    bl_label = "Shutter Curve"
+    bl_context = "render"
+    bl_parent_id = "UNBOUND_PT_motion_blur"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout = self.layout
+        rd = context.scene.render
+        layout.active = rd.use_motion_blur
+        layout.template_curve_mapping(rd, "motion_blur_shutter_curve")
+        row = layout.row(align=True)
+        for shape, icon in (('SMOOTH', 'SMOOTHCURVE'), ('ROUND', 'SPHERECURVE'), ('ROOT', 'ROOTCURVE'),
+                            ('SHARP', 'SHARPCURVE'), ('LINE', 'LINCURVE'), ('MAX', 'NOCURVE')):
+            row.operator("render.shutter_curve_preset", icon=icon, text="").shape = shape
+
+
 class UNBOUND_PT_performance(UnboundPanel, bpy.types.Panel):
     """Blender's Performance settings as Cycles lays them out: threads, then Unbound's tiles and kernel"""
     bl_label = "Performance"
@@ -523,7 +562,8 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
 classes = (UNBOUND_UL_ifs_maps, UNBOUND_UL_kifs_planes, UNBOUND_UL_hybrid_steps, UNBOUND_PT_fractal_hint, UNBOUND_PT_fractal_hint_object, UNBOUND_PT_fractal,
            UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_zoom, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
            UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects,
-           UNBOUND_PT_render_sea, UNBOUND_PT_performance, UNBOUND_PT_performance_threads, UNBOUND_PT_performance_kernel,
+           UNBOUND_PT_render_sea, UNBOUND_PT_motion_blur, UNBOUND_PT_motion_blur_curve, UNBOUND_PT_performance,
+           UNBOUND_PT_performance_threads, UNBOUND_PT_performance_kernel,
            UNBOUND_PT_world, UNBOUND_PT_camera_panorama, UNBOUND_PT_light, UNBOUND_PT_passes)
 
 # Blender's own panels that make sense for Unbound (output format, colour management, camera, world,

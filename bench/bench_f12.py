@@ -6,12 +6,17 @@ render of all samples into the same buffers (what the engine did before), the sa
 with min-max over --repeats rounds of wall time and of this process's CPU time (the machine may be
 shared: the CPU ratio is the steadier figure).
 
+With --motion-blur: what motion blur costs (issue 19: the engine evaluates and exports the scene at
+each sample's time within the shutter): F12 of --samples samples of a moving, mu-keyframed fractal
+with a sun, motion blur off against on; and the engine's own figure for the scene's evaluation and
+export (LAST_STATS['motion_blur_seconds']) per sample.
+
 With --memory: the peak resident memory of one F12 at --res with every pass on, 1 sample, against
 one copy of the passes (4 bytes per channel per pixel) and against a bare core call into one copy;
 each measured in a fresh process (the peak is a process's high-water mark: ru_maxrss after the
 render minus before it, the scene built and a small render done first).
 
-    python bench/bench_f12.py [--repeats 3] [--res 1920x1080] [--memory]
+    python bench/bench_f12.py [--repeats 3] [--res 1920x1080] [--memory] [--motion-blur [--samples 16]]
 """
 import argparse
 import os
@@ -106,18 +111,54 @@ def memory(width, height, repeats):
                  summary([v / copy for v in values]), copy / 1e6))
 
 
+def motion_blur(width, height, samples, repeats):
+    module = ensure_extension(prog="bench_f12")
+    engine = sys.modules[module + ".engine"]
+    scene = new_scene(width, height, world_color=(0.05, 0.05, 0.05))
+    add_camera(scene, (0.4, -3.0, 0.9), (0.0, 0.0, 0.0), lens=50.0)
+    bpy.ops.object.unbound_fractal_add(use_cursor=False)
+    ob = bpy.context.object
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    sun.rotation_euler = (0.6, 0.3, 0.4)
+    scene.collection.objects.link(sun)
+    for frame, x, mu in ((0, -0.3, 0.7), (2, 0.3, 0.9)):
+        ob.location.x, ob.unbound.mu[1] = x, mu
+        ob.keyframe_insert("location", index=0, frame=frame)
+        ob.keyframe_insert("unbound.mu", index=1, frame=frame)
+    scene.frame_set(1)
+    scene.unbound.samples = samples
+    rounds = {False: [], True: []}
+    evaluation = []
+    for _ in range(repeats):  # interleaved, so that load changes hit both alike
+        for blur in (False, True):
+            scene.render.use_motion_blur = blur
+            rounds[blur].append(timed(lambda: bpy.ops.render.render()))
+            if blur:
+                evaluation.append(engine.LAST_STATS["motion_blur_seconds"] / samples * 1e3)
+    ratio = [a[1] / b[1] for a, b in zip(rounds[True], rounds[False])]
+    print("%d samples at %dx%d: F12 without blur wall %s s, CPU %s s | with blur wall %s s, CPU %s s | CPU ratio %s "
+          "| the scene's evaluation and export %s ms per sample"
+          % (samples, width, height, summary([t[0] for t in rounds[False]]), summary([t[1] for t in rounds[False]]),
+             summary([t[0] for t in rounds[True]]), summary([t[1] for t in rounds[True]]), summary(ratio),
+             summary(evaluation)))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--res", default="1920x1080")
     ap.add_argument("--memory", action="store_true")
     ap.add_argument("--memory-child", choices=("f12", "core"))
+    ap.add_argument("--motion-blur", action="store_true")
+    ap.add_argument("--samples", type=int, default=16)
     args = ap.parse_args()
     width, height = map(int, args.res.split("x"))
     if args.memory_child:
         return memory_child(args.memory_child, width, height)
     if args.memory:
         return memory(width, height, args.repeats)
+    if args.motion_blur:
+        return motion_blur(width, height, args.samples, args.repeats)
     module = ensure_extension(prog="bench_f12")
     export = sys.modules[module + ".export"]
     core = sys.modules[module + ".utils"].native()

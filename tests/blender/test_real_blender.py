@@ -136,7 +136,9 @@ def test_gui_panels_screenshots(user_dir):
               "render_tab.png": ("RENDER", {"UNBOUND_PT_render", "UNBOUND_PT_render_viewport",
                                             "UNBOUND_PT_render_lighting", "UNBOUND_PT_render_effects",
                                             "UNBOUND_PT_performance", "UNBOUND_PT_performance_threads",
-                                            "UNBOUND_PT_performance_kernel"}),
+                                            "UNBOUND_PT_performance_kernel",
+                                            # opened by the script (closed by default, as in Cycles)
+                                            "UNBOUND_PT_motion_blur", "UNBOUND_PT_motion_blur_curve"}),
               # (Sea starts closed)
               "view_layer_tab.png": ("VIEW_LAYER", {"UNBOUND_PT_passes"})}
     for name, (tab, panels) in expect.items():

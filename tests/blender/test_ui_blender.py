@@ -7,13 +7,16 @@ import pytest
 
 def test_panels_for_unbound(run_bpy):
     """Render tab: Blender's Color Management panel and its sub-panels, and a Performance panel with
-    Threads (Cycles' layout); Light tab (Properties, data): one panel labelled Light; World tab: a
+    Threads (Cycles' layout), Motion Blur with its Shutter Curve; Light tab (Properties, data): one panel labelled Light; World tab: a
     Surface panel editing the Background node whose Color x Strength the engine reads; the
     fractal's parameters in the empty's Object Data tab; the camera's Depth of Field panels; mu's drag step 10 (0.001 per pixel)."""
     r = run_bpy("ui.panels_for_unbound")
     render = {name for name, _, _ in r["render"]}
     assert {"RENDER_PT_color_management", "RENDER_PT_color_management_curves"} <= render, sorted(render)
     assert {"UNBOUND_PT_performance", "UNBOUND_PT_performance_threads"} <= render, sorted(render)
+    # Motion Blur: Blender's shutter settings and curve (issue 19), not EEVEE's panel of its own options.
+    assert {"UNBOUND_PT_motion_blur", "UNBOUND_PT_motion_blur_curve"} <= render, sorted(render)
+    assert not any("eevee" in name for name in render), sorted(render)
     lights = [name for name, label, _ in r["data"] if label == "Light"]
     assert lights == ["UNBOUND_PT_light"], r["data"]
     assert "UNBOUND_PT_world" in {name for name, _, _ in r["world"]}, r["world"]

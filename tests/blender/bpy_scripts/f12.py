@@ -13,10 +13,19 @@ import numpy as np
 PASS_TOGGLES = ("use_pass_depth", "use_pass_normal", "use_pass_ao", "use_pass_diffuse", "use_pass_shadow")
 
 
-def scene_with_samples(S, width, height, samples):
+def scene_with_samples(S, width, height, samples, motion_blur=False):
+    """motion_blur: the fractal moves sideways through frame 1 (linear keys), rendered with blur."""
     scene = S.empty_scene(width, height)
     S.add_camera(scene)
-    S.add_fractal(max_iterations=12)
+    ob = S.add_fractal(max_iterations=12)
+    if motion_blur:
+        for frame, x in ((0, -0.3), (2, 0.3)):
+            ob.location.x = x
+            ob.keyframe_insert("location", index=0, frame=frame)
+        for point in S.fcurve(ob, "location", 0).keyframe_points:
+            point.interpolation = 'LINEAR'
+        scene.frame_set(1)
+        scene.render.use_motion_blur = True
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
     sun.data.angle = 0.3
     sun.rotation_euler = (0.6, 0.3, 0.4)
@@ -108,10 +117,11 @@ def samples_shown_as_they_finish(S, mod, samples=8):
              last=dict(mod.engine.LAST_STATS))
 
 
-def esc_keeps_the_samples_done(S, mod, samples=8, at=0.5):
+def esc_keeps_the_samples_done(S, mod, samples=8, at=0.5, motion_blur=False):
     """Cancel once the progress passes `at` (within the next sample: the one in flight is dropped),
-    then render the same scene with as many samples as were done: every pass equal, bit for bit."""
-    scene = scene_with_samples(S, 240, 180, samples)
+    then render the same scene with as many samples as were done: every pass equal, bit for bit.
+    motion_blur: a moving fractal with blur (a sample's time depends on its index alone)."""
+    scene = scene_with_samples(S, 240, 180, samples, motion_blur)
     spies, restore = spied(mod, cancel=lambda spy: bool(spy.progress) and spy.progress[-1] > at)
     cancelled = read_passes(S, scene, "cancelled.exr")
     restore()
@@ -124,7 +134,7 @@ def esc_keeps_the_samples_done(S, mod, samples=8, at=0.5):
     S.report(stats=stats, done=done, diffs=diffs, identical=identical, breaks=spies[0].breaks,
              spy_stats=spies[0].stats,
              coverage=float((cancelled["ViewLayer.Combined.A"] > 0).mean()),
-             channels=sorted(reference))
+             channels=sorted(reference), frame=[scene.frame_current, scene.frame_subframe])
 
 
 def esc_in_the_first_sample_keeps_the_tiles_done(S, mod):

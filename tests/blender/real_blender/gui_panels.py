@@ -2,7 +2,8 @@
 installed and enabled in the user preferences:
     blender -p 0 0 W H --python gui_panels.py -- OUTDIR
 From timers: adds a fractal with the add-on's operator, selects it, sets the engine to Unbound,
-shows the Properties editor on the Object, Render and View Layer tabs in turn and grabs the X
+shows the Properties editor on the Object, Render (its Motion Blur panels open) and View Layer
+tabs in turn and grabs the X
 screen with ffmpeg after each (bpy.ops.screen.screenshot is black on Mesa's software GL), then
 quits. Prints `UNBOUND_GUI {json}` lines."""
 import os
@@ -47,7 +48,22 @@ def setup():
     log(step="setup", addon_enabled=MODULE in bpy.context.preferences.addons, add_op=sorted(res),
         active=ob.name if ob else None, is_fractal=bool(ob and ob.unbound.is_fractal), engine=scene.render.engine,
         window=[win.width, win.height])
+    open_motion_blur()
     show_tab('DATA')
+
+
+def open_motion_blur():
+    """Motion blur on, and its two panels (closed by default, as Cycles' are) registered again open
+    before the Render tab is first drawn (a region keeps a panel's open state from then on), so
+    that the Render tab draws them."""
+    ui = sys.modules[MODULE + ".ui"]
+    parent, child = ui.UNBOUND_PT_motion_blur, ui.UNBOUND_PT_motion_blur_curve
+    bpy.utils.unregister_class(child)
+    bpy.utils.unregister_class(parent)
+    for cls in (parent, child):
+        cls.bl_options = set()
+        bpy.utils.register_class(cls)
+    bpy.context.scene.render.use_motion_blur = True
 
 
 def make_ifs():
