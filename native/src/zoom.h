@@ -67,7 +67,7 @@ typedef struct {
  * quaternion kinds' switch (2^-36 of the coordinates, ub_zoom_choose_path) is 100 times stricter
  * because there the perturbation takes over at no visible cost; here there is nothing to switch
  * to, and 1 % of a threshold is below what depth or the gradient normals show (measured:
- * README, Deep zoom). */
+ * README, Deep zoom: at zoom 10 the estimate near the surface is within 5e-7 local units of long double). */
 #define UB_ZOOM_FORMULA_MAX 10.0
 #define UB_ZOOM_FORMULA_LIMIT_MESSAGE                                                                      \
     "zoom: the Mandelbulb, Mandelbox, KIFS and hybrid kinds zoom to 10 at most (double precision; past "  \
