@@ -199,11 +199,12 @@ OBJECT_KEYS = ("kind", "mu", "theta", "max_iterations", "bailout", "threshold_mo
                "normal_delta", "reflectivity", "color_mode", "ramp_scale", "ramp_offset")
 KIND_KEYS = {'QUATERNION_JULIA': ("zoom", "zoom_anchor"), 'QUATERNION_MANDELBROT': ("zoom", "zoom_anchor"),
              'JULIA_STACK': ("stack_height",), 'CUBIC_LOCUS': ("cubic_component", "extent"),
-             'IFS': ("ifs_depth",), 'MANDELBULB': ("power", "julia_mode", "julia_c"),
-             'MANDELBOX': ("box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c"),
-             'KIFS': ("kifs_scale", "kifs_offset", "kifs_rotation", "kifs_shape", "kifs_size"),
+             'IFS': ("ifs_depth",), 'MANDELBULB': ("power", "julia_mode", "julia_c", "zoom", "zoom_anchor"),
+             'MANDELBOX': ("box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c", "zoom",
+                           "zoom_anchor"),
+             'KIFS': ("kifs_scale", "kifs_offset", "kifs_rotation", "kifs_shape", "kifs_size", "zoom", "zoom_anchor"),
              'HYBRID': ("power", "box_scale", "box_fold", "min_radius", "fixed_radius", "julia_mode", "julia_c",
-                        "kifs_scale", "kifs_offset", "kifs_rotation")}
+                        "kifs_scale", "kifs_offset", "kifs_rotation", "zoom", "zoom_anchor")}
 # A hybrid entry's formula as the core numbers it.
 HYBRID_FORMULA_INDEX = {'MANDELBULB': 0, 'MANDELBOX': 1, 'KIFS': 2}
 

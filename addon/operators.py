@@ -579,7 +579,10 @@ class UNBOUND_OT_frame_camera(bpy.types.Operator):
 
 # -- Deep zoom: the anchor under the mouse -----------------------------------------------------
 
-ZOOM_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT'}
+# The kinds with a deep zoom (README: Deep zoom): the quaternion kinds to zoom 60 (perturbation), the
+# formula kinds in double to the core's ZOOM_FORMULA_MAX.
+FORMULA_ZOOM_KINDS = {'MANDELBULB', 'MANDELBOX', 'KIFS', 'HYBRID'}
+ZOOM_KINDS = {'QUATERNION_JULIA', 'QUATERNION_MANDELBROT'} | FORMULA_ZOOM_KINDS
 
 
 def surface_hit(ob, origin, direction):

@@ -202,7 +202,10 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
                          soft_min=-2 * math.pi, soft_max=2 * math.pi, min=-1e6, max=1e6)
     zoom: FloatProperty(name="Zoom", description="Deep zoom: log10 of the magnification. The object's point u is "
                         "the fractal's Anchor + u 10^-Zoom, so keyframing 0 to 30 flies in at a constant speed in "
-                        "scale; the iterations grow by 7 per unit of zoom", default=0.0, min=0.0, max=60.0,
+                        "scale; the iterations grow with it (the quaternion kinds 7 per unit, to zoom 60; the "
+                        "Mandelbulb, Mandelbox, KIFS and hybrid by their formula's scale, in double precision to "
+                        "zoom 10)",
+                        default=0.0, min=0.0, max=60.0,
                         soft_max=45.0, step=10, precision=3)
     zoom_anchor: StringProperty(name="Anchor", description="Deep zoom: the point of the fractal's object space at "
                                 "the object's origin, three decimal numbers 'x y z' with as many digits as the "

@@ -209,9 +209,32 @@ class UNBOUND_PT_fractal_zoom(FractalPanel, bpy.types.Panel):
         layout.prop(props, "zoom")
         layout.prop(props, "zoom_anchor")
         layout.operator("object.unbound_pick_zoom_anchor", icon='EYEDROPPER')
-        if props.zoom > 0.0:
+        if props.kind in operators.FORMULA_ZOOM_KINDS:
+            self.draw_formula_limit(context.object)
+        elif props.zoom > 0.0:
             # The core's rule (native/src/zoom.h): what a frame at this zoom iterates.
             iterations = min(props.max_iterations + math.ceil(7.0 * props.zoom), 1024)
+            layout.label(text="Iterations at this zoom: %d" % iterations, icon='INFO')
+
+    def draw_formula_limit(self, ob):
+        """The formula kinds zoom in double only, to the core's ZOOM_FORMULA_MAX; past it the render
+        stops with the core's message. The iterations at this zoom are the core's (describe())."""
+        layout, props = self.layout, ob.unbound
+        try:
+            core = utils.native()
+        except ImportError:
+            return
+        limit = core.ZOOM_FORMULA_MAX
+        try:
+            iterations = core.describe(export.object_parameters(ob, with_ramp=False))["max_iterations"]
+        except (ValueError, TypeError, export.RenderError):
+            iterations = None
+        if props.zoom > limit:
+            layout.label(text="Past this kind's deepest zoom, %g: the render stops" % limit, icon='ERROR')
+            layout.label(text="(double precision; only the quaternion kinds go deeper)")
+            return
+        layout.label(text="Deepest zoom for this kind: %g (double precision)" % limit, icon='INFO')
+        if props.zoom > 0.0 and iterations is not None:
             layout.label(text="Iterations at this zoom: %d" % iterations, icon='INFO')
 
 

@@ -54,10 +54,12 @@ def kifs_rho(planes, scale, offset, shape, size):
     return max(rho, (SQRT3 if shape in ("box", "tetrahedron") else 1.0) * size)
 
 
-def kifs_step(z, planes, scale, offset, rotation=None):
+def kifs_step(z, planes, scale, offset, rotation=None, normalize=True):
+    """normalize=False: the planes' normals are unit vectors already, taken as given (e.g. rounded
+    to float32 as a kernel reads them, which a second normalisation would move)."""
     for nx, ny, nz, d in planes:
         n = np.array([nx, ny, nz], float)
-        length = np.linalg.norm(n)
+        length = np.linalg.norm(n) if normalize else 1.0
         n, d = n / length, d / length
         t = z @ n - d
         z = np.where((t < 0)[..., None], z - 2 * t[..., None] * n, z)
@@ -66,8 +68,9 @@ def kifs_step(z, planes, scale, offset, rotation=None):
     return scale * z - np.asarray(offset, float) * (scale - 1)
 
 
-def kifs(p, planes, scale, offset, rotation, shape, size, iterations, bailout):
-    """Returns (estimate, inside-the-level-n-set, steps taken): the escape-time KIFS."""
+def kifs(p, planes, scale, offset, rotation, shape, size, iterations, bailout, normalize=True):
+    """Returns (estimate, inside-the-level-n-set, steps taken): the escape-time KIFS
+    (normalize: kifs_step's)."""
     p = np.asarray(p, np.float64)
     rho = kifs_rho(planes, scale, offset, shape, size)
     bailout = max(bailout, rho)
@@ -79,7 +82,7 @@ def kifs(p, planes, scale, offset, rotation, shape, size, iterations, bailout):
         active = ~escaped
         if not active.any():
             break
-        new = kifs_step(z, planes, scale, offset, rotation)
+        new = kifs_step(z, planes, scale, offset, rotation, normalize)
         z = np.where(active[..., None], new, z)
         dr = np.where(active, dr * scale, dr)
         count += active

@@ -476,12 +476,48 @@ static void de_zoom(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, con
             x->normal[k] = v_load(gs[k]);
 }
 
+/* A zoomed formula kind (Mandelbulb, Mandelbox, KIFS, hybrid): zoom_formulas.c's scalar double
+ * estimate, lane by lane (compiled once, so every kernel gets its bits), for the lanes `lanes`
+ * only. No Jacobian: these kinds' normals are gradients of the estimate. */
+static void de_zoom_formula(const ub_de_params *p, vm lanes, vf a, vf b, vf c, const int want, vf *dist, vf *iters,
+                            ub_de_extra *x)
+{
+    float u[3][UB_LANES], ds[UB_LANES] = {0}, ns[UB_LANES] = {0}, ts[UB_LANES] = {0}, ps[UB_LANES] = {0};
+    const int wanted = m_bits(lanes);
+    v_store(u[0], a);
+    v_store(u[1], b);
+    v_store(u[2], c);
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((wanted >> l) & 1))
+            continue;
+        const double ul[3] = {u[0][l], u[1][l], u[2][l]};
+        ub_zoom_result r;
+        ub_zoom_formula_estimate(p->obj, ul, &r);
+        ds[l] = (float)fmax(fmin(r.dist, FLT_MAX), -FLT_MAX);
+        ns[l] = (float)r.iterations;
+        ts[l] = (float)r.trap;
+        ps[l] = (float)r.potential;
+    }
+    *dist = v_load(ds);
+    *iters = v_load(ns);
+    if (want & UB_WANT_TRAP)
+        x->trap = v_load(ts);
+    if (want & UB_WANT_POTENTIAL)
+        x->potential = v_load(ps);
+    if (want & UB_WANT_JACOBIAN)
+        x->normal[0] = x->normal[1] = x->normal[2] = v_set1(0.0f);
+}
+
 /* The distance estimate of the object's kind, with the extras `want` asks for, in the lanes
  * `lanes`; the other lanes' outputs are unspecified (but never trap), and they cost nothing once
  * the wanted lanes are done: a packet whose rays have mostly hit iterates only for the rest. */
 static inline void de_ext(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, const int want, vf *dist,
                                  vf *iters, ub_de_extra *x)
 {
+    if (p->zoom_path && ub_kind_is_formula(p->obj->kind)) {
+        de_zoom_formula(p, lanes, a, b, c, want, dist, iters, x);
+        return;
+    }
     if (p->zoom_path) {
         de_zoom(p, lanes, a, b, c, d, want, dist, iters, x);
         return;

@@ -982,8 +982,8 @@ static PyObject *py_describe(PyObject *self, PyObject *args)
     if (!parse_object(obj_o, "object", o)) {
         const double(*b)[3] = o->slice_basis;
         double world_radius = o->bound_radius > 0.0 ? o->bound_radius * o->sigma_max : o->bound_radius;
-        result = Py_BuildValue("{s:s,s:O,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}",
-                               "kind", ub_kind_names[o->kind], "exact", o->exact ? Py_True : Py_False,
+        result = Py_BuildValue("{s:s,s:i,s:O,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}",
+                               "kind", ub_kind_names[o->kind], "max_iterations", o->max_iterations, "exact", o->exact ? Py_True : Py_False,
                                "ifs_mirror", o->kind == UB_KIND_IFS && o->ifs_mirror ? Py_True : Py_False,
                                "step_factor", o->step_factor, "max_step", o->max_step, "bound_center",
                                o->bound_center[0], o->bound_center[1], o->bound_center[2], "bound_radius",
@@ -1262,7 +1262,7 @@ static PyMethodDef methods[] = {
      "anti-aliasing sample `sample` (camera_ray's lens)"},
     {"describe", py_describe, METH_VARARGS,
      "describe(object) -> derived values: bounding ball (object space, and its radius in the world), effective "
-     "bailout, singular values of the placement, slice after the theta rotation, ifs_mirror (an IFS whose pieces are "
+     "bailout, max_iterations (a zoomed object's grow with the zoom), singular values of the placement, slice after the theta rotation, ifs_mirror (an IFS whose pieces are "
      "mirror images: its estimate follows one path, no search)"},
     {"cpu_info", py_cpu_info, METH_NOARGS, "cpu_info() -> {'cpus': n, 'avx2_fma': bool, 'avx512': bool}"},
     {"_math_probe", py_math_probe, METH_VARARGS,
@@ -1422,6 +1422,7 @@ PyMODINIT_FUNC PyInit__native(void)
     }
     PyModule_AddObject(m, "PARAMETERS", parameters);
     PyModule_AddObject(m, "PRECISION_LIMIT", PyFloat_FromDouble(UB_PRECISION_LIMIT));
+    PyModule_AddObject(m, "ZOOM_FORMULA_MAX", PyFloat_FromDouble(UB_ZOOM_FORMULA_MAX));
     PyModule_AddObject(m, "PASSES", names);
     PyModule_AddObject(m, "PASS_CHANNELS", chans);
     PyModule_AddObject(m, "BACKGROUND_DEPTH", PyFloat_FromDouble(UB_BACKGROUND_DEPTH));

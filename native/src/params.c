@@ -117,9 +117,10 @@ static const ub_param object_rows[] = {
     LIST(OBJ, hybrid_steps, 1, 2, 0.0, 10000.0, 1, UB_MAX_HYBRID_STEPS, default_hybrid_steps, 2, 0,
          "hybrid: (formula, count) entries applied in turn, formula 0 Mandelbulb, 1 Mandelbox, 2 KIFS"),
     REAL(OBJ, zoom, 0.0, UB_MAX_ZOOM, NULL,
-         "quaternion kinds: log10 of the magnification; the object's point u is the fractal's anchor + u 10^-zoom"),
+         "quaternion kinds (to 60) and Mandelbulb, Mandelbox, KIFS, hybrid (to 10, double precision): log10 of the "
+         "magnification; the object's point u is the fractal's anchor + u 10^-zoom"),
     {"zoom_anchor", UB_PARAM_STRING, FIELD_OF(OBJ, zoom_anchor), 1, 1, 0, UB_MAX_ANCHOR - 1, NULL, NULL, 0,
-     "quaternion kinds: the fractal's object-space point at the object's origin, three decimal numbers 'x y z' "
+     "zoomed kinds: the fractal's object-space point at the object's origin, three decimal numbers 'x y z' "
      "with as many digits as the zoom needs", 0, 0, 0, 0, 0, NULL, "0 0 0"},
 };
 #undef OBJ

@@ -538,7 +538,13 @@ const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
         obj->hybrid_repeat[i] = n == floor(n) ? (int)n : -1;
     }
     const char *err = ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
-    return err ? err : ub_zoom_prepare(obj, in->zoom, in->zoom_anchor);
+    if (!err)
+        err = ub_zoom_prepare(obj, in->zoom, in->zoom_anchor);
+    /* A zoomed formula kind's empirical step cap grew with the zoom (zoom_formulas.c); the user's
+     * own Max Step still holds. */
+    if (!err && obj->zoom.enabled)
+        obj->max_step = fmin(obj->max_step, in->max_step);
+    return err;
 }
 
 const char *ub_light_from_input(ub_light *L, const ub_light_input *in)

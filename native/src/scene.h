@@ -381,6 +381,18 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
 const char *ub_zoom_anchor_move(const char *anchor_text, double zoom, const double u[3], int digits, char *out,
                                 int size);
 
+/* zoom_formulas.c: the formula kinds' deep zoom in double (zoom.h: UB_ZOOM_FORMULA_MAX). */
+static inline int ub_kind_is_formula(ub_fractal_kind kind)
+{
+    return kind == UB_KIND_MANDELBULB || kind == UB_KIND_MANDELBOX || kind == UB_KIND_KIFS || kind == UB_KIND_HYBRID;
+}
+/* Called by ub_zoom_prepare for these kinds with the parsed anchor; NULL or a message. */
+const char *ub_zoom_formula_prepare(ub_object *obj, double zoom, const ub_fixed anchor[3]);
+/* The estimate at the local point u (object units around the anchor), in local units. */
+void ub_zoom_formula_estimate(const ub_object *o, const double u[3], ub_zoom_result *res);
+/* zoom.c: the set's bounding ball in local units, cut to UB_ZOOM_VIEW_RADIUS around the anchor. */
+void ub_zoom_view_ball(ub_object *obj, const ub_fixed anchor[3]);
+
 /* scene.c / camera.c: derive the precomputed fields; return NULL or an error message. */
 const char *ub_object_prepare(ub_object *obj, double theta, const double slice_basis[4][3],
                               const double slice_origin[4], const double object_to_world[4][4]);

@@ -358,6 +358,30 @@ static int skip_table(ub_zoom *zm)
     return count;
 }
 
+/* The bounding ball in local units, cut to UB_ZOOM_VIEW_RADIUS around the anchor (every zoomed
+ * kind: the whole set's ball is 10^zoom local units across, far beyond float32's reach). */
+void ub_zoom_view_ball(ub_object *obj, const ub_fixed anchor[3])
+{
+    const ub_zoom *zm = &obj->zoom;
+    if (obj->bound_radius >= 0.0) {
+        double center[3], dist2 = 0.0;
+        for (int c = 0; c < 3; c++) {
+            center[c] = (obj->bound_center[c] - ub_fixed_to_double(&anchor[c])) / zm->scale;
+            dist2 += center[c] * center[c];
+        }
+        double radius = obj->bound_radius / zm->scale;
+        if (sqrt(dist2) - radius > UB_ZOOM_VIEW_RADIUS) {
+            obj->bound_radius = -1.0; /* the set is out of the zoomed view */
+        } else if (radius > UB_ZOOM_VIEW_RADIUS) {
+            obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
+            obj->bound_radius = UB_ZOOM_VIEW_RADIUS;
+        } else {
+            memcpy(obj->bound_center, center, sizeof center);
+            obj->bound_radius = radius;
+        }
+    }
+}
+
 const char *ub_zoom_prepare(ub_object *obj, double zoom, const char *anchor_text)
 {
     ub_zoom *zm = &obj->zoom;
@@ -368,9 +392,11 @@ const char *ub_zoom_prepare(ub_object *obj, double zoom, const char *anchor_text
     zm->enabled = zoom != 0.0 || !fx_is_zero(&anchor[0]) || !fx_is_zero(&anchor[1]) || !fx_is_zero(&anchor[2]);
     if (!zm->enabled)
         return NULL; /* today's object, untouched */
+    if (ub_kind_is_formula(obj->kind))
+        return ub_zoom_formula_prepare(obj, zoom, anchor); /* double only, to UB_ZOOM_FORMULA_MAX */
     int julia = obj->kind == UB_KIND_QUATERNION_JULIA;
     if (!julia && obj->kind != UB_KIND_QUATERNION_MANDELBROT)
-        return "zoom and zoom_anchor apply to the quaternion Julia and Mandelbrot kinds only";
+        return UB_ZOOM_KINDS_MESSAGE;
     zm->zoom = zoom;
     zm->scale = ub_pow(10.0, -zoom);
     /* The mu the float32 kernels iterate, exactly: every path must see the same set. */
@@ -410,24 +436,7 @@ const char *ub_zoom_prepare(ub_object *obj, double zoom, const char *anchor_text
         memcpy(zm->crit, zm->ref, sizeof zm->ref);
     }
     zm->skip_count = julia ? skip_table(zm) : 0;
-    /* The bounding ball in local units, cut to UB_ZOOM_VIEW_RADIUS around the anchor. */
-    if (obj->bound_radius >= 0.0) {
-        double center[3], dist2 = 0.0;
-        for (int c = 0; c < 3; c++) {
-            center[c] = (obj->bound_center[c] - ub_fixed_to_double(&anchor[c])) / zm->scale;
-            dist2 += center[c] * center[c];
-        }
-        double radius = obj->bound_radius / zm->scale;
-        if (sqrt(dist2) - radius > UB_ZOOM_VIEW_RADIUS) {
-            obj->bound_radius = -1.0; /* the set is out of the zoomed view */
-        } else if (radius > UB_ZOOM_VIEW_RADIUS) {
-            obj->bound_center[0] = obj->bound_center[1] = obj->bound_center[2] = 0.0;
-            obj->bound_radius = UB_ZOOM_VIEW_RADIUS;
-        } else {
-            memcpy(obj->bound_center, center, sizeof center);
-            obj->bound_radius = radius;
-        }
-    }
+    ub_zoom_view_ball(obj, anchor);
     /* The kernels' quaternion becomes the local offset B u; the estimate adds Q + 10^-zoom B u. */
     for (int r = 0; r < 4; r++)
         obj->slice_origin[r] = 0.0;

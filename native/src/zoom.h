@@ -58,6 +58,24 @@ typedef struct {
 #define UB_ZOOM_SKIP_STRIDE 8
 #define UB_ZOOM_SKIP_TOLERANCE 0x1p-30
 
+/* The formula kinds (Mandelbulb, Mandelbox, KIFS, hybrid: zoom_formulas.c) zoom in double only:
+ * their maps are no polynomials in the point (folds, the triplex angles), so no perturbation
+ * carries them past double. Double rounds the point and each step to ~2^-53 of the coordinates,
+ * some 1e-15 of fractal units over an orbit (|p| ~ 1, a few ulps' growth); the path is right while
+ * that stays about 1 % of the hit threshold. A pixel threshold is ~1e-3 local units (a 2000-pixel
+ * frame seen from 3 units away), 10^-(zoom + 3) fractal units: 1e-15 is 1 % of it at zoom 10. The
+ * quaternion kinds' switch (2^-36 of the coordinates, ub_zoom_choose_path) is 100 times stricter
+ * because there the perturbation takes over at no visible cost; here there is nothing to switch
+ * to, and 1 % of a threshold is below what depth or the gradient normals show (measured:
+ * README, Deep zoom: at zoom 10 the estimate near the surface is within 5e-7 local units of long double). */
+#define UB_ZOOM_FORMULA_MAX 10.0
+#define UB_ZOOM_FORMULA_LIMIT_MESSAGE                                                                      \
+    "zoom: the Mandelbulb, Mandelbox, KIFS and hybrid kinds zoom to 10 at most (double precision; past "  \
+    "it double no longer resolves a pixel, and only the quaternion kinds go deeper, by perturbation)"
+#define UB_ZOOM_KINDS_MESSAGE                                                                              \
+    "zoom and zoom_anchor apply to the quaternion Julia and Mandelbrot kinds (to 60) and the Mandelbulb, " \
+    "Mandelbox, KIFS and hybrid kinds (to 10) only: Julia stacks, the cubic locus and IFS take no zoom"
+
 typedef enum { UB_ZOOM_OFF = 0, UB_ZOOM_DOUBLE, UB_ZOOM_PERTURBATION } ub_zoom_path;
 
 /* What a zoomed object carries (ub_object.zoom). */

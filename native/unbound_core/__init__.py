@@ -11,6 +11,7 @@ from ._native import (  # noqa: F401
     PARAMETERS,
     PASSES,
     PRECISION_LIMIT,
+    ZOOM_FORMULA_MAX,
     camera_ray,
     cpu_info,
     describe,

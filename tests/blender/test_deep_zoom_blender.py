@@ -39,3 +39,12 @@ def test_rendered_viewport_at_zoom_20(run_bpy):
     assert r["picks"] == [["FINISHED"]] * 3, r
     assert r["final"] and r["identical"], r
     assert r["coverage"] > 0.5, r  # the surface fills the view
+
+
+def test_zoomed_mandelbulb_renders_through_f12_and_past_the_limit_says_why(run_bpy):
+    """The formula kinds zoom in double (issue 22): Pick Anchor works for them, F12 renders a zoomed
+    Mandelbulb, and a zoom past ZOOM_FORMULA_MAX (10) stops the render with the core's message."""
+    r = run_bpy("deep_zoom.formula_zoom_f12")
+    assert r["picks"] == [["FINISHED"]] * 2, r
+    assert r["coverage"] is not None and r["coverage"] > 0.2, r  # the surface at the picked anchor
+    assert "zoom to 10 at most" in r["past_limit"] and not r["past_limit_written"], r

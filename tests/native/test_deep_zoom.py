@@ -213,9 +213,10 @@ def test_bad_anchors_are_refused_with_a_message(anchor, message):
     assert message in str(info.value)
 
 
-def test_zoom_needs_a_quaternion_kind():
+def test_zoom_needs_a_kind_that_zooms():
+    """The formula kinds zoom too (test_deep_zoom_formulas.py); the other kinds are refused."""
     with pytest.raises(ValueError, match="quaternion Julia and Mandelbrot"):
-        render(make_camera(8, 6), [dict(kind="mandelbulb", zoom=5.0)], names=["alpha"])
+        render(make_camera(8, 6), [dict(kind="julia_stack", zoom=5.0)], names=["alpha"])
 
 
 def test_parameter_rows():

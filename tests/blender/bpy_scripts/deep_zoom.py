@@ -81,3 +81,24 @@ def viewport_at_depth(S, mod):
     ref = combined(S.render_to_exr(scene, "deep.exr"))
     S.report(picks=picks, final=frame.final, identical=bool(np.array_equal(frame.pixels, ref)),
              coverage=float((ref[..., 3] > 0).mean()), anchor=ob.unbound.zoom_anchor)
+
+
+def formula_zoom_f12(S, mod):
+    """A Mandelbulb picked at the camera's centre at zoom 0 and 4, rendered through F12 at zoom 8 (the
+    double path), then at zoom 10.5, past the formula kinds' limit: F12 stops with the core's message."""
+    scene = S.empty_scene(32, 24)
+    S.add_camera(scene, location=(0.3, -4.0, 0.2), target=(0.0, 0.0, 0.0))
+    ob = S.add_fractal(kind='MANDELBULB', max_iterations=10)
+    bpy.context.view_layer.objects.active = ob
+    picks = []
+    for zoom in (0.0, 4.0):
+        ob.unbound.zoom = zoom
+        picks.append(list(bpy.ops.object.unbound_pick_zoom_anchor()))
+    ob.unbound.zoom = 8.0
+    passes = S.render_to_exr(scene)
+    alpha = [v for k, v in passes.items() if k.endswith("Combined.A")]
+    coverage = float(np.mean(alpha[0] > 0.5)) if alpha else None
+    ob.unbound.zoom = 10.5
+    outcome, written = S.attempt(scene)
+    S.report(picks=picks, coverage=coverage, passes=sorted(passes),
+             past_limit=outcome, past_limit_written=written, anchor=ob.unbound.zoom_anchor)
