@@ -818,3 +818,39 @@ void UB_ENTRY(ub_normals)(const ub_object *o, const float *xyz, const float *t, 
         }
     }
 }
+
+void UB_ENTRY(ub_zoom_probe)(const ub_object *o, int path, int want, int scalar, const float *xyz, size_t count,
+                             double *out)
+{
+    for (size_t base = 0; base < count; base += UB_LANES) {
+        float q[4][UB_LANES];
+        size_t n = count - base < UB_LANES ? count - base : UB_LANES;
+        for (size_t l = 0; l < UB_LANES; l++) {
+            const float *p = xyz + 3 * (base + (l < n ? l : n - 1));
+            double pd[3] = {p[0], p[1], p[2]};
+            float ql[4];
+            to_quaternion(o, pd, ql);
+            for (int k = 0; k < 4; k++)
+                q[k][l] = ql[k];
+        }
+        ub_zoom_result r[UB_LANES];
+        if (scalar) {
+            for (size_t l = 0; l < n; l++) {
+                const double uq[4] = {q[0][l], q[1][l], q[2][l], q[3][l]};
+                ub_zoom_estimate(o, path, uq, want, &r[l]);
+            }
+        } else {
+            zoom_lanes(o, path, (1 << n) - 1, q, want, r);
+        }
+        for (size_t l = 0; l < n; l++) {
+            double *row = out + UB_ZOOM_PROBE_VALUES * (base + l);
+            row[0] = r[l].dist;
+            row[1] = r[l].iterations;
+            row[2] = r[l].trap;
+            row[3] = r[l].potential;
+            for (int a = 0; a < 3; a++)
+                row[4 + a] = (want & UB_WANT_JACOBIAN) ? r[l].normal[a] : 0.0;
+            row[7] = r[l].rebases;
+        }
+    }
+}
