@@ -454,17 +454,20 @@ static void de_zoom(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, con
     v_store(q[1], b);
     v_store(q[2], c);
     v_store(q[3], d);
-    ub_zoom_result r[UB_LANES];
-    zoom_lanes(p->obj, p->zoom_path, wanted, q, want, r);
+    zoom_out r;
+    zoom_lanes(p->obj, p->zoom_path, wanted, q, want, &r);
     for (int l = 0; l < UB_LANES; l++) {
         if (!((wanted >> l) & 1))
             continue;
-        ds[l] = (float)fmin(r[l].dist, FLT_MAX);
-        ns[l] = (float)r[l].iterations;
-        ts[l] = (float)r[l].trap;
-        ps[l] = (float)r[l].potential;
-        for (int k = 0; k < 3; k++)
-            gs[k][l] = (want & UB_WANT_JACOBIAN) ? (float)r[l].normal[k] : 0.0f;
+        ds[l] = (float)fmin(r.dist[l], FLT_MAX);
+        ns[l] = (float)r.iterations[l];
+        if (want & UB_WANT_TRAP)
+            ts[l] = (float)r.trap[l];
+        if (want & UB_WANT_POTENTIAL)
+            ps[l] = (float)r.potential[l];
+        if (want & UB_WANT_JACOBIAN)
+            for (int k = 0; k < 3; k++)
+                gs[k][l] = (float)r.normal[k][l];
     }
     *dist = v_load(ds);
     *iters = v_load(ns);

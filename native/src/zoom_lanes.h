@@ -14,6 +14,8 @@
  * vector that follow a reference all sit on the same entry (the same skip, no glitch: the common
  * case) it is one broadcast load per component, else a gather. */
 
+#include "ubmath.h" /* ub_log: the scalar finish's bits */
+
 #define ZOOM_VECTORS (UB_LANES / VD_LANES)
 #define ZOOM_ENTRY ((int)sizeof(double[4])) /* bytes per reference entry */
 
@@ -21,7 +23,7 @@
 typedef struct {
     vd z[4], d[4], dc[4], c_full[4];
     vd ref[4];             /* the reference entry Z_index the next step starts from */
-    vd r2, dr2, dm, trap, gscale, add_scale, n, rebases;
+    vd r2, dr2, dm, trap, add_scale, n, rebases;
     vd offset, end;        /* byte offsets in ub_zoom of Z_index and of its orbit's end */
     vd j[3][4];
     vdm active;            /* still iterating */
@@ -31,7 +33,7 @@ typedef struct {
 
 /* Whether the active lanes that follow a reference share one entry (then `shared` is its offset;
  * -1 when there is none, or they differ). */
-static inline void zoom_share(zoom_vector *v)
+static inline __attribute__((always_inline)) void zoom_share(zoom_vector *v)
 {
     double offset[VD_LANES];
     vd_store(offset, v->offset);
@@ -49,7 +51,7 @@ static inline void zoom_share(zoom_vector *v)
     }
 }
 
-static inline vd zoom_norm2(const vd x[4])
+static inline __attribute__((always_inline)) vd zoom_norm2(const vd x[4])
 {
     return vd_add(vd_add(vd_add(vd_mul(x[0], x[0]), vd_mul(x[1], x[1])), vd_mul(x[2], x[2])), vd_mul(x[3], x[3]));
 }
@@ -85,7 +87,7 @@ static inline __attribute__((always_inline)) void zoom_jacobian_step(const ub_ob
 }
 
 /* delta^2 (+ what direct iteration adds, dc, after): the step without a reference. */
-static inline void zoom_square(const vd d[4], vd out[4])
+static inline __attribute__((always_inline)) void zoom_square(const vd d[4], vd out[4])
 {
     const vd two = vd_set1(2.0);
     const vd p = d[0];
@@ -94,9 +96,10 @@ static inline void zoom_square(const vd d[4], vd out[4])
         out[k] = vd_mul(vd_mul(two, p), d[k]);
 }
 
-/* One iteration of the active lanes of v (ub_zoom_iterate's loop body). */
+/* One iteration of the active lanes of v (ub_zoom_iterate's loop body). The potential's 2^-n is
+ * not carried: zoom_unpack forms it from n, exactly (n <= 1024: 2^-n is a double). */
 static inline __attribute__((always_inline)) void zoom_step(const ub_object *o, zoom_vector *v, const int julia,
-                                                            const int perturb, const int jacobian)
+                                                            const int perturb, const int jacobian, const int trap)
 {
     const ub_zoom *zm = &o->zoom;
     const vdm act = v->active;
@@ -177,13 +180,23 @@ static inline __attribute__((always_inline)) void zoom_step(const ub_object *o, 
             z[k] = dn[k];
     }
     const vd nr2 = zoom_norm2(z);
-    for (int k = 0; k < 4; k++) {
-        v->z[k] = vd_select(act, z[k], v->z[k]);
-        v->d[k] = vd_select(act, dn[k], v->d[k]);
+    if (jacobian) {
+        /* The normal reads z_n of each lane at its escape: freeze it. */
+        for (int k = 0; k < 4; k++) {
+            v->z[k] = vd_select(act, z[k], v->z[k]);
+            v->d[k] = vd_select(act, dn[k], v->d[k]);
+        }
+    } else {
+        /* Nothing reads z or delta after the loop: escaped lanes iterate on (to inf or NaN,
+         * harmless: every mask above is within the active lanes, their reference entry froze). */
+        for (int k = 0; k < 4; k++) {
+            v->z[k] = z[k];
+            v->d[k] = dn[k];
+        }
     }
     v->r2 = vd_select(act, nr2, v->r2);
-    v->trap = vd_select(act, vd_min(nr2, v->trap), v->trap); /* fmin(trap, nr2): a NaN nr2 leaves trap */
-    v->gscale = vd_select(act, vd_mul(v->gscale, vd_set1(0.5)), v->gscale);
+    if (trap)
+        v->trap = vd_select(act, vd_min(nr2, v->trap), v->trap); /* fmin(trap, nr2): a NaN nr2 leaves trap */
     v->n = vd_select(act, vd_add(v->n, vd_set1(1.0)), v->n);
     v->active = vdm_and(vdm_andnot(vd_gt(nr2, vd_set1(o->bailout * o->bailout)), act),
                         vd_lt(v->n, vd_set1((double)o->max_iterations)));
@@ -192,131 +205,180 @@ static inline __attribute__((always_inline)) void zoom_step(const ub_object *o, 
         zoom_share(v);
 }
 
-/* Every vector of the packet to its end, side by side (two independent chains of dependent
- * operations keep the pipelines fuller than one). */
-static inline __attribute__((always_inline)) void zoom_iterate_vectors(const ub_object *o,
-                                                                       zoom_vector v[ZOOM_VECTORS], const int julia,
-                                                                       const int perturb, const int jacobian)
+/* One vector's lanes to their end; the state in locals (registers), not in the caller's array. */
+static inline __attribute__((always_inline)) void zoom_iterate_vector(const ub_object *o, zoom_vector *out,
+                                                                      const int julia, const int perturb,
+                                                                      const int jacobian, const int trap)
 {
-    for (;;) {
-        int running = 0;
-        for (int h = 0; h < ZOOM_VECTORS; h++) {
-            if (!vdm_bits(v[h].active))
-                continue;
-            zoom_step(o, &v[h], julia, perturb, jacobian);
-            running |= vdm_bits(v[h].active);
-        }
-        if (!running)
-            return;
-    }
+    zoom_vector v = *out;
+    while (vdm_bits(v.active))
+        zoom_step(o, &v, julia, perturb, jacobian, trap);
+    *out = v;
 }
 
-/* ub_zoom_state <-> vectors: lane l of the packet is lane l % VD_LANES of vector l / VD_LANES. */
-#define ZOOM_PACK(dst, field)                                                                              \
-    do {                                                                                                   \
-        double t_[VD_LANES];                                                                               \
-        for (int l = 0; l < VD_LANES; l++)                                                                 \
-            t_[l] = (double)(s[l].field);                                                                  \
-        (dst) = vd_load(t_);                                                                               \
-    } while (0)
-#define ZOOM_UNPACK(field, src, type)                                                                      \
-    do {                                                                                                   \
-        double t_[VD_LANES];                                                                               \
-        vd_store(t_, (src));                                                                               \
-        for (int l = 0; l < VD_LANES; l++)                                                                 \
-            s[l].field = (type)t_[l];                                                                      \
-    } while (0)
-
-/* s: VD_LANES lanes' states from ub_zoom_start (zeroed where not wanted); bits: the lanes wanted. */
-static void zoom_pack(const ub_object *o, const ub_zoom_state *s, int bits, zoom_vector *v)
+/* The kind, the path and the extras as constants: each combination its own loop. */
+#define ZOOM_CASE(index)                                                                                       case index:                                                                                                    for (int h = 0; h < ZOOM_VECTORS; h++)                                                                         zoom_iterate_vector(o, &v[h], (index) >> 3 & 1, (index) >> 2 & 1, (index) >> 1 & 1, (index) & 1);         break;
+static void zoom_iterate_vectors(const ub_object *o, zoom_vector v[ZOOM_VECTORS], int julia, int perturb,
+                                 int jacobian, int trap)
 {
-    double offset[VD_LANES], end[VD_LANES];
-    for (int l = 0; l < VD_LANES; l++) {
-        double orbit = (double)(s[l].on_crit ? offsetof(ub_zoom, crit) : offsetof(ub_zoom, ref));
-        offset[l] = orbit + (double)s[l].index * ZOOM_ENTRY;
-        end[l] = orbit + (double)s[l].length * ZOOM_ENTRY;
+    switch (julia << 3 | perturb << 2 | jacobian << 1 | trap) {
+        ZOOM_CASE(0) ZOOM_CASE(1) ZOOM_CASE(2) ZOOM_CASE(3) ZOOM_CASE(4) ZOOM_CASE(5) ZOOM_CASE(6) ZOOM_CASE(7)
+        ZOOM_CASE(8) ZOOM_CASE(9) ZOOM_CASE(10) ZOOM_CASE(11) ZOOM_CASE(12) ZOOM_CASE(13) ZOOM_CASE(14) ZOOM_CASE(15)
     }
-    v->offset = vd_load(offset);
-    v->end = vd_load(end);
+}
+#undef ZOOM_CASE
+
+/* The start of ub_zoom_start for VD_LANES lanes: q, their quaternions B u (u local, float, the
+ * lane's first at q[k][0]); bits, the lanes wanted. */
+static void zoom_start(const ub_object *o, int path, int bits, const float *const q[4], const int want,
+                       zoom_vector *v)
+{
+    const ub_zoom *zm = &o->zoom;
+    const int julia = o->kind == UB_KIND_QUATERNION_JULIA, perturb = path == UB_ZOOM_PERTURBATION;
+    const char *base = (const char *)zm;
+    const double ref_at = (double)offsetof(ub_zoom, ref);
+    const vd one = vd_set1(1.0), zero = vd_set1(0.0);
+    vd offset[4];
     for (int k = 0; k < 4; k++) {
-        ZOOM_PACK(v->z[k], z[k]);
-        ZOOM_PACK(v->d[k], delta[k]);
-        ZOOM_PACK(v->dc[k], dc[k]);
-        ZOOM_PACK(v->c_full[k], c_full[k]);
+        double u[VD_LANES];
+        for (int l = 0; l < VD_LANES; l++)
+            u[l] = q[k][l];
+        offset[k] = vd_mul(vd_set1(zm->scale), vd_load(u));
+        v->z[k] = vd_add(vd_set1(zm->anchor_q[k]), offset[k]);
+        const vd c = julia ? vd_set1(zm->mu[k]) : v->z[k]; /* the c of direct iteration */
+        v->c_full[k] = c;
+        v->d[k] = perturb ? offset[k] : v->z[k];
+        v->dc[k] = perturb ? (julia ? zero : offset[k]) : c;
+        v->ref[k] = zero;
         for (int a = 0; a < 3; a++)
-            ZOOM_PACK(v->j[a][k], j[a][k]);
+            v->j[a][k] = vd_set1(o->slice_basis[k][a]);
     }
-    ZOOM_PACK(v->r2, r2);
-    ZOOM_PACK(v->dr2, dr2);
-    ZOOM_PACK(v->dm, dm);
-    ZOOM_PACK(v->trap, trap);
-    ZOOM_PACK(v->gscale, gscale);
-    ZOOM_PACK(v->add_scale, add_scale);
-    ZOOM_PACK(v->n, n);
-    ZOOM_PACK(v->rebases, rebases);
-    int direct = 0;
-    for (int l = 0; l < VD_LANES; l++)
-        direct |= (s[l].direct ? 1 : 0) << l;
-    v->direct = vdm_from_bits(direct);
-    v->active = vdm_and(vdm_from_bits(bits), vd_lt(v->n, vd_set1((double)o->max_iterations)));
+    v->direct = vdm_from_bits(perturb ? 0 : (1 << VD_LANES) - 1);
+    v->offset = vd_set1(ref_at + (perturb && !julia ? ZOOM_ENTRY : 0));
+    v->end = vd_set1(ref_at + (double)zm->ref_length * ZOOM_ENTRY);
+    v->r2 = zoom_norm2(v->z);
+    v->trap = v->r2;
+    v->dr2 = v->dm = v->add_scale = one;
+    v->n = v->rebases = zero;
+    const vdm wanted = vdm_from_bits(bits);
+    if (perturb && julia && zm->skip_count > 0) {
+        /* The largest skip whose radius holds delta_0 (radii shrink with K): the scalar binary
+         * search, every lane at once. */
+        const vd d0 = vd_sqrt(zoom_norm2(v->d));
+        const double skip_at = (double)offsetof(ub_zoom, skip), skip_size = (double)sizeof zm->skip[0];
+        vd lo = zero, hi = vd_set1((double)zm->skip_count);
+        for (vdm open = vdm_and(wanted, vd_lt(lo, hi)); vdm_bits(open); open = vdm_and(open, vd_lt(lo, hi))) {
+            vd mid = vd_floor(vd_mul(vd_add(vd_add(lo, hi), one), vd_set1(0.5)));
+            vd at = vd_add(vd_set1(skip_at), vd_mul(mid, vd_set1(skip_size)));
+            vd radius = vd_gather(zero, open, base + offsetof(ub_zoom, skip[0].radius) - offsetof(ub_zoom, skip), at);
+            vdm holds = vd_ge(radius, d0);
+            lo = vd_select(vdm_and(open, holds), mid, lo);
+            hi = vd_select(vdm_andnot(holds, open), vd_sub(mid, one), hi);
+        }
+        const vd K = vd_mul(lo, vd_set1(UB_ZOOM_SKIP_STRIDE));
+        const vdm skip = vdm_and(vdm_and(wanted, vd_gt(K, zero)), vd_lt(K, vd_set1((double)o->max_iterations)));
+        if (vdm_bits(skip)) {
+            const vd at = vd_add(vd_set1(skip_at), vd_mul(lo, vd_set1(skip_size)));
+            vd m[4][4];
+            for (int r = 0; r < 4; r++)
+                for (int c = 0; c < 4; c++)
+                    m[r][c] = vd_gather(zero, skip, base + offsetof(ub_zoom, skip[0].matrix[r][c]) - offsetof(ub_zoom, skip), at);
+            vd nd[4];
+            for (int r = 0; r < 4; r++)
+                nd[r] = vd_add(vd_add(vd_add(vd_mul(m[r][0], v->d[0]), vd_mul(m[r][1], v->d[1])), vd_mul(m[r][2], v->d[2])),
+                               vd_mul(m[r][3], v->d[3]));
+            for (int r = 0; r < 4; r++)
+                v->d[r] = vd_select(skip, nd[r], v->d[r]);
+            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same linear maps */
+                for (int a = 0; a < 3; a++) {
+                    vd *h = v->j[a], nj[4];
+                    for (int r = 0; r < 4; r++)
+                        nj[r] = vd_add(vd_add(vd_add(vd_mul(m[r][0], h[0]), vd_mul(m[r][1], h[1])), vd_mul(m[r][2], h[2])),
+                                       vd_mul(m[r][3], h[3]));
+                    for (int r = 0; r < 4; r++)
+                        h[r] = vd_select(skip, nj[r], h[r]);
+                }
+            v->n = vd_select(skip, K, v->n);
+            v->offset = vd_select(skip, vd_add(vd_set1(ref_at), vd_mul(K, vd_set1(ZOOM_ENTRY))), v->offset);
+            vd z[4];
+            for (int k = 0; k < 4; k++)
+                z[k] = vd_add(vd_gather(zero, skip, base + k * sizeof(double), v->offset), v->d[k]);
+            for (int k = 0; k < 4; k++)
+                v->z[k] = vd_select(skip, z[k], v->z[k]);
+            v->r2 = vd_select(skip, zoom_norm2(z), v->r2);
+            v->dr2 = vd_gather(v->dr2, skip, base + offsetof(ub_zoom, skip[0].dr2) - offsetof(ub_zoom, skip), at);
+            v->trap = vd_gather(v->trap, skip, base + offsetof(ub_zoom, skip[0].trap) - offsetof(ub_zoom, skip), at);
+        }
+    }
+    v->active = vdm_and(wanted, vd_lt(v->n, vd_set1((double)o->max_iterations)));
     /* Z_index of the lanes that follow a reference (the others' is never read). */
-    const char *base = (const char *)&o->zoom;
     for (int k = 0; k < 4; k++)
-        v->ref[k] = vd_gather(vd_set1(0.0), vdm_andnot(v->direct, v->active), base + k * sizeof(double), v->offset);
+        v->ref[k] = vd_gather(zero, vdm_andnot(v->direct, v->active), base + k * sizeof(double), v->offset);
     zoom_share(v);
 }
 
-/* What ub_zoom_finish reads. */
-static void zoom_unpack(const zoom_vector *v, ub_zoom_state *s)
+/* What a packet's estimate yields, per lane (ub_zoom_result's fields). */
+typedef struct {
+    double dist[UB_LANES], iterations[UB_LANES], trap[UB_LANES], potential[UB_LANES], normal[3][UB_LANES];
+    double rebases[UB_LANES];
+} zoom_out;
+
+/* ub_zoom_finish for VD_LANES lanes, into out's lanes from `first` on; the log per lane. */
+static void zoom_finish(const ub_object *o, const zoom_vector *v, const int want, zoom_out *out, int first)
 {
-    for (int k = 0; k < 4; k++) {
-        ZOOM_UNPACK(z[k], v->z[k], double);
-        for (int a = 0; a < 3; a++)
-            ZOOM_UNPACK(j[a][k], v->j[a][k], double);
+    const int julia = o->kind == UB_KIND_QUATERNION_JULIA;
+    const vd zero = vd_set1(0.0);
+    const vdm escaped = vd_gt(v->r2, vd_set1(o->bailout * o->bailout));
+    double r2[VD_LANES], lr2[VD_LANES], n[VD_LANES];
+    vd_store(r2, v->r2);
+    vd_store(n, v->n);
+    const int escapes = vdm_bits(escaped);
+    for (int l = 0; l < VD_LANES; l++)
+        lr2[l] = (escapes >> l) & 1 ? ub_log(r2[l]) : 0.0;
+    const vd lr = vd_load(lr2);
+    const vd dr2 = julia ? v->dr2 : vd_mul(v->dm, v->dm);
+    /* fractal units -> local units */
+    const vd est = vd_div(vd_mul(vd_mul(vd_sqrt(vd_div(v->r2, dr2)), lr), vd_set1(0.25)), vd_set1(o->zoom.scale));
+    vd_store(out->dist + first, vd_select(escaped, est, zero));
+    vd_store(out->iterations + first, v->n);
+    vd_store(out->rebases + first, v->rebases);
+    if (want & UB_WANT_TRAP)
+        vd_store(out->trap + first, vd_sqrt(v->trap));
+    if (want & UB_WANT_POTENTIAL) {
+        double g[VD_LANES];
+        for (int l = 0; l < VD_LANES; l++)
+            g[l] = ldexp(1.0, -(int)n[l]); /* 2^-n, exactly the scalar's halvings */
+        vd_store(out->potential + first, vd_select(escaped, vd_mul(vd_mul(lr, vd_set1(0.5)), vd_load(g)), zero));
     }
-    ZOOM_UNPACK(r2, v->r2, double);
-    ZOOM_UNPACK(dr2, v->dr2, double);
-    ZOOM_UNPACK(dm, v->dm, double);
-    ZOOM_UNPACK(trap, v->trap, double);
-    ZOOM_UNPACK(gscale, v->gscale, double);
-    ZOOM_UNPACK(n, v->n, int);
-    ZOOM_UNPACK(rebases, v->rebases, int);
+    if (want & UB_WANT_JACOBIAN) {
+        /* Only the direction is used: unit length, so float32 holds it. */
+        vd g[3], len2 = zero;
+        for (int a = 0; a < 3; a++) {
+            const vd *h = v->j[a];
+            g[a] = vd_add(vd_add(vd_add(vd_mul(v->z[0], h[0]), vd_mul(v->z[1], h[1])), vd_mul(v->z[2], h[2])),
+                          vd_mul(v->z[3], h[3]));
+            len2 = vd_add(len2, vd_mul(g[a], g[a]));
+        }
+        const vdm usable = vdm_and(vd_gt(len2, zero), vd_lt(len2, vd_set1(HUGE_VAL)));
+        const vd inv = vd_select(usable, vd_div(vd_set1(1.0), vd_sqrt(len2)), zero);
+        for (int a = 0; a < 3; a++)
+            vd_store(out->normal[a] + first, vd_mul(g[a], inv));
+    }
 }
 
 /* The zoomed estimate by `path` at the lanes `bits` of the packet of quaternions q (B u, u
- * local), with the extras of `want`: res[l] for those lanes, as ub_zoom_estimate's. */
+ * local), with the extras of `want`, as ub_zoom_estimate's: out's lanes of `bits`. */
 static void zoom_lanes(const ub_object *o, int path, int bits, const float q[4][UB_LANES], const int want,
-                       ub_zoom_result res[UB_LANES])
+                       zoom_out *out)
 {
-    ub_zoom_state s[UB_LANES];
-    memset(s, 0, sizeof s);
-    for (int l = 0; l < UB_LANES; l++)
-        if ((bits >> l) & 1) {
-            const double uq[4] = {q[0][l], q[1][l], q[2][l], q[3][l]};
-            ub_zoom_start(o, path, uq, want, &s[l]);
-        }
     zoom_vector v[ZOOM_VECTORS];
     const int lane_bits = (1 << VD_LANES) - 1;
+    for (int h = 0; h < ZOOM_VECTORS; h++) {
+        const float *const qh[4] = {q[0] + h * VD_LANES, q[1] + h * VD_LANES, q[2] + h * VD_LANES, q[3] + h * VD_LANES};
+        zoom_start(o, path, (bits >> (h * VD_LANES)) & lane_bits, qh, want, &v[h]);
+    }
+    zoom_iterate_vectors(o, v, o->kind == UB_KIND_QUATERNION_JULIA, path == UB_ZOOM_PERTURBATION,
+                         (want & UB_WANT_JACOBIAN) != 0, (want & UB_WANT_TRAP) != 0);
     for (int h = 0; h < ZOOM_VECTORS; h++)
-        zoom_pack(o, s + h * VD_LANES, (bits >> (h * VD_LANES)) & lane_bits, &v[h]);
-    /* The kind, the path and the Jacobian as constants: each combination its own loop. */
-    const int julia = o->kind == UB_KIND_QUATERNION_JULIA, perturb = path == UB_ZOOM_PERTURBATION;
-    const int jacobian = (want & UB_WANT_JACOBIAN) != 0;
-#define ZOOM_CASE(J, P, D)                                                                                 \
-    if (julia == J && perturb == P && jacobian == D)                                                       \
-    zoom_iterate_vectors(o, v, J, P, D)
-    ZOOM_CASE(1, 1, 0);
-    else ZOOM_CASE(1, 0, 0);
-    else ZOOM_CASE(0, 1, 0);
-    else ZOOM_CASE(0, 0, 0);
-    else ZOOM_CASE(1, 1, 1);
-    else ZOOM_CASE(1, 0, 1);
-    else ZOOM_CASE(0, 1, 1);
-    else ZOOM_CASE(0, 0, 1);
-#undef ZOOM_CASE
-    for (int h = 0; h < ZOOM_VECTORS; h++)
-        zoom_unpack(&v[h], s + h * VD_LANES);
-    for (int l = 0; l < UB_LANES; l++)
-        if ((bits >> l) & 1)
-            ub_zoom_finish(o, &s[l], want, &res[l]);
+        zoom_finish(o, &v[h], want, out, h * VD_LANES);
 }
