@@ -95,4 +95,12 @@ static inline vd vd_gather(vd src, vdm m, const void *base, vd offset)
 {
     return _mm256_mask_i32gather_pd(src, (const double *)base, _mm256_cvttpd_epi32(offset), m, 1);
 }
+/* Positive normal x = m 2^e, m in [1, 2), by its bits (e exact, as a double). */
+static inline void vd_split_exponent(vd x, vd *m, vd *e)
+{
+    const __m256i b = _mm256_castpd_si256(x), two52 = _mm256_set1_epi64x(0x4330000000000000ll);
+    *e = _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(_mm256_srli_epi64(b, 52), two52)), _mm256_set1_pd(0x1p52 + 1023.0));
+    *m = _mm256_castsi256_pd(_mm256_or_si256(_mm256_and_si256(b, _mm256_set1_epi64x(0x000fffffffffffffll)),
+                                             _mm256_set1_epi64x(0x3ff0000000000000ll)));
+}
 #endif

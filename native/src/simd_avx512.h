@@ -87,4 +87,12 @@ static inline vd vd_gather(vd src, vdm m, const void *base, vd offset)
 {
     return _mm512_mask_i32gather_pd(src, m, _mm512_cvttpd_epi32(offset), base, 1);
 }
+/* Positive normal x = m 2^e, m in [1, 2), by its bits (e exact, as a double). */
+static inline void vd_split_exponent(vd x, vd *m, vd *e)
+{
+    const __m512i b = _mm512_castpd_si512(x), two52 = _mm512_set1_epi64(0x4330000000000000ll);
+    *e = _mm512_sub_pd(_mm512_castsi512_pd(_mm512_or_si512(_mm512_srli_epi64(b, 52), two52)), _mm512_set1_pd(0x1p52 + 1023.0));
+    *m = _mm512_castsi512_pd(_mm512_or_si512(_mm512_and_si512(b, _mm512_set1_epi64(0x000fffffffffffffll)),
+                                             _mm512_set1_epi64(0x3ff0000000000000ll)));
+}
 #endif

@@ -97,4 +97,15 @@ static inline vd vd_gather(vd src, vdm m, const void *base, vd offset)
     VD_LOOP(i) if (m.v[i]) memcpy(&src.v[i], (const char *)base + (ptrdiff_t)offset.v[i], sizeof(double));
     return src;
 }
+/* Positive normal x = m 2^e, m in [1, 2), by its bits (e exact, as a double). */
+static inline void vd_split_exponent(vd x, vd *m, vd *e)
+{
+    VD_LOOP(i) {
+        uint64_t b;
+        memcpy(&b, &x.v[i], 8);
+        e->v[i] = (double)(int)(b >> 52) - 1023.0;
+        b = (b & 0x000fffffffffffffull) | 0x3ff0000000000000ull;
+        memcpy(&m->v[i], &b, 8);
+    }
+}
 #endif

@@ -14,7 +14,7 @@
  * vector that follow a reference all sit on the same entry (the same skip, no glitch: the common
  * case) it is one broadcast load per component, else a gather. */
 
-#include "ubmath.h" /* ub_log: the scalar finish's bits */
+#include "ubmath.h" /* ub_log's series and constants */
 
 #define ZOOM_VECTORS (UB_LANES / VD_LANES)
 #define ZOOM_ENTRY ((int)sizeof(double[4])) /* bytes per reference entry */
@@ -317,25 +317,57 @@ static void zoom_start(const ub_object *o, int path, int bits, const float *cons
     zoom_share(v);
 }
 
+/* ub_log (ubmath.h's ub__log_dd, then hi + lo) for finite x >= 2^-1022, every lane at once: the
+ * same operations in the same order, so the same bits. */
+static inline vd zoom_log(vd x)
+{
+    const vd one = vd_set1(1.0), two = vd_set1(2.0), splitter = vd_set1(134217729.0);
+    vd m, kd;
+    vd_split_exponent(x, &m, &kd);
+    const vdm high = vd_gt(m, vd_set1(UB__SQRT2));
+    m = vd_select(high, vd_mul(m, vd_set1(0.5)), m);
+    kd = vd_select(high, vd_add(kd, one), kd);
+    const vd f = vd_sub(m, one);
+    const vd dh = vd_add(two, f), dl = vd_sub(f, vd_sub(dh, two)); /* fast two-sum */
+    const vd sh = vd_div(f, dh);
+    /* Dekker's product sh dh = p + pe */
+    const vd p = vd_mul(sh, dh);
+    vd t = vd_mul(splitter, sh);
+    const vd ah = vd_sub(t, vd_sub(t, sh)), al = vd_sub(sh, ah);
+    t = vd_mul(splitter, dh);
+    const vd bh = vd_sub(t, vd_sub(t, dh)), bl = vd_sub(dh, bh);
+    const vd pe = vd_add(vd_add(vd_add(vd_sub(vd_mul(ah, bh), p), vd_mul(ah, bl)), vd_mul(al, bh)), vd_mul(al, bl));
+    const vd sl = vd_div(vd_sub(vd_sub(vd_sub(f, p), pe), vd_mul(sh, dl)), dh);
+    const vd z = vd_mul(sh, sh);
+    vd poly = vd_set1(ub__log_series[11]);
+    for (int i = 10; i >= 0; i--)
+        poly = vd_add(vd_mul(poly, z), vd_set1(ub__log_series[i]));
+    const vd a = vd_mul(two, sh);
+    const vd b = vd_add(vd_mul(two, sl), vd_add(vd_mul(vd_mul(sh, z), poly), vd_mul(vd_mul(two, z), sl)));
+    const vd lmh = vd_add(a, b), lml = vd_sub(b, vd_sub(lmh, a));
+    const vd c = vd_mul(kd, vd_set1(UB__LN2_HI));
+    const vd h = vd_add(c, lmh), bb = vd_sub(h, c);
+    const vd e = vd_add(vd_sub(c, vd_sub(h, bb)), vd_sub(lmh, bb)); /* two-sum */
+    const vd rest = vd_add(vd_add(e, lml), vd_mul(kd, vd_set1(UB__LN2_LO)));
+    const vd hi = vd_add(h, rest), lo = vd_sub(rest, vd_sub(hi, h));
+    return vd_add(hi, lo);
+}
+
 /* What a packet's estimate yields, per lane (ub_zoom_result's fields). */
 typedef struct {
     double dist[UB_LANES], iterations[UB_LANES], trap[UB_LANES], potential[UB_LANES], normal[3][UB_LANES];
     double rebases[UB_LANES];
 } zoom_out;
 
-/* ub_zoom_finish for VD_LANES lanes, into out's lanes from `first` on; the log per lane. */
+/* ub_zoom_finish for VD_LANES lanes, into out's lanes from `first` on. */
 static void zoom_finish(const ub_object *o, const zoom_vector *v, const int want, zoom_out *out, int first)
 {
     const int julia = o->kind == UB_KIND_QUATERNION_JULIA;
     const vd zero = vd_set1(0.0);
     const vdm escaped = vd_gt(v->r2, vd_set1(o->bailout * o->bailout));
-    double r2[VD_LANES], lr2[VD_LANES], n[VD_LANES];
-    vd_store(r2, v->r2);
-    vd_store(n, v->n);
-    const int escapes = vdm_bits(escaped);
-    for (int l = 0; l < VD_LANES; l++)
-        lr2[l] = (escapes >> l) & 1 ? ub_log(r2[l]) : 0.0;
-    const vd lr = vd_load(lr2);
+    /* Escaped lanes have r2 > bailout^2 >= 1: normal, or an infinity (ub_log(inf) = inf). */
+    const vdm finite = vd_lt(v->r2, vd_set1(HUGE_VAL));
+    const vd lr = vd_select(escaped, vd_select(finite, zoom_log(v->r2), v->r2), zero);
     const vd dr2 = julia ? v->dr2 : vd_mul(v->dm, v->dm);
     /* fractal units -> local units */
     const vd est = vd_div(vd_mul(vd_mul(vd_sqrt(vd_div(v->r2, dr2)), lr), vd_set1(0.25)), vd_set1(o->zoom.scale));
@@ -345,7 +377,8 @@ static void zoom_finish(const ub_object *o, const zoom_vector *v, const int want
     if (want & UB_WANT_TRAP)
         vd_store(out->trap + first, vd_sqrt(v->trap));
     if (want & UB_WANT_POTENTIAL) {
-        double g[VD_LANES];
+        double g[VD_LANES], n[VD_LANES];
+        vd_store(n, v->n);
         for (int l = 0; l < VD_LANES; l++)
             g[l] = ldexp(1.0, -(int)n[l]); /* 2^-n, exactly the scalar's halvings */
         vd_store(out->potential + first, vd_select(escaped, vd_mul(vd_mul(lr, vd_set1(0.5)), vd_load(g)), zero));
