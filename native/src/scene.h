@@ -384,8 +384,7 @@ typedef struct {
 } ub_zoom_result;
 /* The estimate at the kernels' quaternion B u (u local) by `path`, with the extras of `want`:
  * the scalar reference, ub_zoom_start, ub_zoom_iterate and ub_zoom_finish in a row. The kernels
- * run the same start and finish per lane and the iterations in between lane-parallel
- * (zoom_lanes.h), with the same bits. */
+ * run all three lane-parallel (zoom_lanes.h), with the same bits. */
 void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_result *res);
 /* One point's iteration state between the start and the finish. */
 typedef struct {
