@@ -440,8 +440,10 @@ static inline void de_ifs(const ub_de_params *p, vm lanes, vf x, vf y, vf z, con
 
 #include "formulas.h"
 
-/* A zoomed quaternion object: the scalar double or perturbation estimate of zoom.c, lane by lane
- * (compiled once, so every kernel gets its bits), for the lanes `lanes` only. */
+#include "zoom_lanes.h"
+
+/* A zoomed quaternion object: the double or perturbation estimate of zoom.c, lane-parallel in
+ * double (zoom_lanes.h: the same bits in every kernel), for the lanes `lanes` only. */
 static void de_zoom(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, const int want, vf *dist, vf *iters,
                     ub_de_extra *x)
 {
@@ -452,18 +454,20 @@ static void de_zoom(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, con
     v_store(q[1], b);
     v_store(q[2], c);
     v_store(q[3], d);
+    zoom_out r;
+    zoom_lanes(p->obj, p->zoom_path, wanted, q, want, &r);
     for (int l = 0; l < UB_LANES; l++) {
         if (!((wanted >> l) & 1))
             continue;
-        const double uq[4] = {q[0][l], q[1][l], q[2][l], q[3][l]};
-        ub_zoom_result r;
-        ub_zoom_estimate(p->obj, p->zoom_path, uq, want, &r);
-        ds[l] = (float)fmin(r.dist, FLT_MAX);
-        ns[l] = (float)r.iterations;
-        ts[l] = (float)r.trap;
-        ps[l] = (float)r.potential;
-        for (int k = 0; k < 3; k++)
-            gs[k][l] = (want & UB_WANT_JACOBIAN) ? (float)r.normal[k] : 0.0f;
+        ds[l] = (float)fmin(r.dist[l], FLT_MAX);
+        ns[l] = (float)r.iterations[l];
+        if (want & UB_WANT_TRAP)
+            ts[l] = (float)r.trap[l];
+        if (want & UB_WANT_POTENTIAL)
+            ps[l] = (float)r.potential[l];
+        if (want & UB_WANT_JACOBIAN)
+            for (int k = 0; k < 3; k++)
+                gs[k][l] = (float)r.normal[k][l];
     }
     *dist = v_load(ds);
     *iters = v_load(ns);

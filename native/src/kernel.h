@@ -818,3 +818,48 @@ void UB_ENTRY(ub_normals)(const ub_object *o, const float *xyz, const float *t, 
         }
     }
 }
+
+void UB_ENTRY(ub_zoom_probe)(const ub_object *o, int path, int want, int scalar, const float *xyz, size_t count,
+                             double *out)
+{
+    for (size_t base = 0; base < count; base += UB_LANES) {
+        float q[4][UB_LANES];
+        size_t n = count - base < UB_LANES ? count - base : UB_LANES;
+        for (size_t l = 0; l < UB_LANES; l++) {
+            const float *p = xyz + 3 * (base + (l < n ? l : n - 1));
+            double pd[3] = {p[0], p[1], p[2]};
+            float ql[4];
+            to_quaternion(o, pd, ql);
+            for (int k = 0; k < 4; k++)
+                q[k][l] = ql[k];
+        }
+        zoom_out r;
+        if (scalar) {
+            for (size_t l = 0; l < n; l++) {
+                const double uq[4] = {q[0][l], q[1][l], q[2][l], q[3][l]};
+                ub_zoom_result one;
+                ub_zoom_estimate(o, path, uq, want, &one);
+                r.dist[l] = one.dist;
+                r.iterations[l] = one.iterations;
+                r.trap[l] = one.trap;
+                r.potential[l] = one.potential;
+                for (int a = 0; a < 3; a++)
+                    r.normal[a][l] = one.normal[a];
+                r.rebases[l] = one.rebases;
+            }
+        } else {
+            zoom_lanes(o, path, (1 << n) - 1, q, want, &r);
+        }
+        for (size_t l = 0; l < n; l++) {
+            double *row = out + UB_ZOOM_PROBE_VALUES * (base + l);
+            row[0] = r.dist[l];
+            row[1] = r.iterations[l];
+            /* Only what `want` asks for is computed. */
+            row[2] = (want & UB_WANT_TRAP) ? r.trap[l] : 0.0;
+            row[3] = (want & UB_WANT_POTENTIAL) ? r.potential[l] : 0.0;
+            for (int a = 0; a < 3; a++)
+                row[4 + a] = (want & UB_WANT_JACOBIAN) ? r.normal[a][l] : 0.0;
+            row[7] = r.rebases[l];
+        }
+    }
+}

@@ -35,4 +35,8 @@ void ub_normals_avx2(const ub_object *o, const float *x, const float *t, size_t 
 {
     ub_normals_portable(o, x, t, n, out);
 }
+void ub_zoom_probe_avx2(const ub_object *o, int path, int want, int scalar, const float *x, size_t n, double *out)
+{
+    ub_zoom_probe_portable(o, path, want, scalar, x, n, out);
+}
 #endif

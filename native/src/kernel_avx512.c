@@ -36,4 +36,8 @@ void ub_normals_avx512(const ub_object *o, const float *x, const float *t, size_
 {
     ub_normals_portable(o, x, t, n, out);
 }
+void ub_zoom_probe_avx512(const ub_object *o, int path, int want, int scalar, const float *x, size_t n, double *out)
+{
+    ub_zoom_probe_portable(o, path, want, scalar, x, n, out);
+}
 #endif

@@ -1023,6 +1023,52 @@ static int probe_arg(PyObject *item, int index, int single, double *out)
     return 0;
 }
 
+/* _zoom_probe(object, points, path, want, *, simd='auto', scalar=False) -> bytes: the deep zoom's
+ * estimate at object-space points by path ('double' or 'perturbation'), as the kernel `simd` runs
+ * it lane-parallel or (scalar) by zoom.c's reference, UB_ZOOM_PROBE_VALUES float64 per point. */
+static PyObject *py_zoom_probe(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *kwlist[] = {"object", "points", "path", "want", "simd", "scalar", NULL};
+    PyObject *obj_o, *pts_o, *simd_o = NULL;
+    const char *path_name;
+    int want, scalar = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOsi|$Op", kwlist, &obj_o, &pts_o, &path_name, &want, &simd_o,
+                                     &scalar))
+        return NULL;
+    int path = !strcmp(path_name, "double") ? UB_ZOOM_DOUBLE : !strcmp(path_name, "perturbation") ? UB_ZOOM_PERTURBATION : 0;
+    if (!path || want < 0 || want > (UB_WANT_TRAP | UB_WANT_POTENTIAL | UB_WANT_JACOBIAN)) {
+        PyErr_SetString(PyExc_ValueError, "_zoom_probe: path 'double' or 'perturbation', want 0..7");
+        return NULL;
+    }
+    ub_object *obj = PyMem_Calloc(1, sizeof(ub_object));
+    if (!obj)
+        return PyErr_NoMemory();
+    Py_buffer pv;
+    int kernel = -1;
+    Py_ssize_t n = -1;
+    if (parse_object(obj_o, "object", obj) || (kernel = get_simd(simd_o)) < 0 || (n = get_points(pts_o, &pv)) < 0) {
+        PyMem_Free(obj);
+        return NULL;
+    }
+    PyObject *result = NULL;
+    if (!obj->zoom.enabled) {
+        PyErr_SetString(PyExc_ValueError, "_zoom_probe: the object has no zoom");
+    } else if ((result = PyBytes_FromStringAndSize(NULL, n * UB_ZOOM_PROBE_VALUES * (Py_ssize_t)sizeof(double)))) {
+        double *out = (double *)PyBytes_AsString(result);
+        Py_BEGIN_ALLOW_THREADS
+        uint64_t fp = ub_fp_enter();
+        if (n > 0)
+            (kernel == UB_ISA_AVX512 ? ub_zoom_probe_avx512 : kernel == UB_ISA_AVX2 ? ub_zoom_probe_avx2
+                                                                                  : ub_zoom_probe_portable)(
+                obj, path, want, scalar, pv.buf, (size_t)n, out);
+        ub_fp_leave(fp);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&pv);
+    PyMem_Free(obj);
+    return result;
+}
+
 static PyObject *py_math_probe(PyObject *self, PyObject *args)
 {
     static const struct {
@@ -1265,6 +1311,11 @@ static PyMethodDef methods[] = {
      "bailout, max_iterations (a zoomed object's grow with the zoom), singular values of the placement, slice after the theta rotation, ifs_mirror (an IFS whose pieces are "
      "mirror images: its estimate follows one path, no search)"},
     {"cpu_info", py_cpu_info, METH_NOARGS, "cpu_info() -> {'cpus': n, 'avx2_fma': bool, 'avx512': bool}"},
+    {"_zoom_probe", (PyCFunction)(void (*)(void))py_zoom_probe, METH_VARARGS | METH_KEYWORDS,
+     "_zoom_probe(object, points, path, want, *, simd='auto', scalar=False) -> bytes: private test hook of the "
+     "deep zoom: the estimate of a zoomed object at object-space points by path 'double' or 'perturbation' with "
+     "the extras of want (1 trap, 2 potential, 4 normal), lane-parallel as the kernel simd runs it or by the "
+     "scalar reference; 8 float64 per point: distance, iterations, trap, potential, normal (3), rebases"},
     {"_math_probe", py_math_probe, METH_VARARGS,
      "_math_probe(name, values) -> [float]: private test hook of the core's own exp, log, sin, cos, acos, expf, "
      "pow, hypot (pairs), fmaf (triples)"},

@@ -356,6 +356,13 @@ void ub_normals_portable(const ub_object *, const float *, const float *, size_t
 void ub_estimate_avx512(const ub_object *, const float *, size_t, float *, float *);
 void ub_estimate_avx2(const ub_object *, const float *, size_t, float *, float *);
 void ub_estimate_portable(const ub_object *, const float *, size_t, float *, float *);
+/* Deep zoom test hook (module.c's _zoom_probe): the estimate of a zoomed object by `path` at n
+ * object-space points, lane-parallel as the kernels run it or (scalar) by ub_zoom_estimate, per
+ * point UB_ZOOM_PROBE_VALUES doubles: distance, iterations, trap, potential, normal (3), rebases. */
+#define UB_ZOOM_PROBE_VALUES 8
+void ub_zoom_probe_avx512(const ub_object *, int path, int want, int scalar, const float *, size_t, double *);
+void ub_zoom_probe_avx2(const ub_object *, int path, int want, int scalar, const float *, size_t, double *);
+void ub_zoom_probe_portable(const ub_object *, int path, int want, int scalar, const float *, size_t, double *);
 
 int ub_cpu_has_avx2_fma(void);
 int ub_cpu_has_avx512(void);
@@ -373,9 +380,34 @@ typedef struct {
     int iterations;
     double trap, potential;
     double normal[3];     /* with UB_WANT_JACOBIAN: the gradient of |z_n| along the object's axes */
+    int rebases;          /* glitches: how often the point moved onto the critical orbit */
 } ub_zoom_result;
-/* The estimate at the kernels' quaternion B u (u local) by `path`, with the extras of `want`. */
+/* The estimate at the kernels' quaternion B u (u local) by `path`, with the extras of `want`:
+ * the scalar reference, ub_zoom_start, ub_zoom_iterate and ub_zoom_finish in a row. The kernels
+ * run all three lane-parallel (zoom_lanes.h), with the same bits. */
 void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_result *res);
+/* One point's iteration state between the start and the finish. */
+typedef struct {
+    double z[4];          /* the point's orbit z_n */
+    double delta[4];      /* z_n - Z_index of the reference it follows (z_n itself when direct) */
+    double dc[4];         /* what each step adds on top of the reference's own step */
+    double c_full[4];     /* the c of direct iteration (mu, or the Mandelbrot point) */
+    double r2, dr2, dm;   /* |z_n|^2; the Julia |f'|^2 or the Mandelbrot |f'| */
+    double trap, gscale;  /* min |z_k|^2; 2^-n */
+    double add_scale;     /* the Mandelbrot Jacobian's dmu/dx, rescaled with it */
+    double j[3][4];       /* with UB_WANT_JACOBIAN: dz_n/dx along the three object axes */
+    int n;                /* iterations done (skipped ones included) */
+    int direct;           /* no reference: the double path, or past the reference's end */
+    int on_crit;          /* following the critical orbit (after a glitch) rather than the anchor's */
+    int index, length;    /* the reference entry Z_index, of `length` stored */
+    int rebases;
+} ub_zoom_state;
+/* The point's start: z0 = Q + 10^-zoom B u, the reference, the skip table's linear start. */
+void ub_zoom_start(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_state *s);
+/* The iterations, from s->n on to the escape or max_iterations (scalar). */
+void ub_zoom_iterate(const ub_object *o, ub_zoom_state *s, int want);
+/* The estimate and its extras from the state after the last iteration. */
+void ub_zoom_finish(const ub_object *o, const ub_zoom_state *s, int want, ub_zoom_result *res);
 /* The anchor moved by the local offset u, as text: anchor + u 10^-zoom with `digits` digits after
  * the point (the fixed point's exact sum); NULL or a message. */
 const char *ub_zoom_anchor_move(const char *anchor_text, double zoom, const double u[3], int digits, char *out,

@@ -57,4 +57,50 @@ static inline void v_frexp_centered(vf x, vf *m, vf *e)
     *m = mf;
     *e = _mm256_cvtepi32_ps(ei);
 }
+
+/* Doubles for the deep zoom's estimate (zoom_lanes.h): 4 per vector, two per packet. Only IEEE
+ * + - * / sqrt, min, max and compares, no fused multiply-add: the bits of zoom.c's scalar code
+ * (compiled without FMA, and -ffp-contract=off keeps the compiler from fusing these). */
+#define VD_LANES 4
+typedef __m256d vd;
+typedef __m256d vdm; /* all bits set = true */
+static inline vd vd_set1(double x) { return _mm256_set1_pd(x); }
+static inline vd vd_load(const double *p) { return _mm256_loadu_pd(p); }
+static inline void vd_store(double *p, vd a) { _mm256_storeu_pd(p, a); }
+static inline vd vd_add(vd a, vd b) { return _mm256_add_pd(a, b); }
+static inline vd vd_sub(vd a, vd b) { return _mm256_sub_pd(a, b); }
+static inline vd vd_mul(vd a, vd b) { return _mm256_mul_pd(a, b); }
+static inline vd vd_sqrt(vd a) { return _mm256_sqrt_pd(a); }
+static inline vd vd_div(vd a, vd b) { return _mm256_div_pd(a, b); }
+static inline vd vd_floor(vd a) { return _mm256_floor_pd(a); }
+/* a < b ? a : b and a > b ? a : b (NaN: b), as vminpd / vmaxpd. */
+static inline vd vd_min(vd a, vd b) { return _mm256_min_pd(a, b); }
+static inline vd vd_max(vd a, vd b) { return _mm256_max_pd(a, b); }
+static inline vdm vd_lt(vd a, vd b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
+static inline vdm vd_gt(vd a, vd b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
+static inline vdm vd_ge(vd a, vd b) { return _mm256_cmp_pd(a, b, _CMP_GE_OQ); }
+static inline vdm vdm_and(vdm a, vdm b) { return _mm256_and_pd(a, b); }
+static inline vdm vdm_or(vdm a, vdm b) { return _mm256_or_pd(a, b); }
+static inline vdm vdm_andnot(vdm a, vdm b) { return _mm256_andnot_pd(a, b); } /* !a & b */
+static inline int vdm_bits(vdm a) { return _mm256_movemask_pd(a); }
+static inline vdm vdm_from_bits(int bits)
+{
+    const __m256i lane = _mm256_setr_epi64x(1, 2, 4, 8);
+    return _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(_mm256_set1_epi64x(bits), lane), lane));
+}
+static inline vd vd_select(vdm m, vd a, vd b) { return _mm256_blendv_pd(b, a, m); } /* m ? a : b */
+/* The double at byte offset `offset` (an integer below 2^31) from base, in the lanes of m; the
+ * others keep src. */
+static inline vd vd_gather(vd src, vdm m, const void *base, vd offset)
+{
+    return _mm256_mask_i32gather_pd(src, (const double *)base, _mm256_cvttpd_epi32(offset), m, 1);
+}
+/* Positive normal x = m 2^e, m in [1, 2), by its bits (e exact, as a double). */
+static inline void vd_split_exponent(vd x, vd *m, vd *e)
+{
+    const __m256i b = _mm256_castpd_si256(x), two52 = _mm256_set1_epi64x(0x4330000000000000ll);
+    *e = _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(_mm256_srli_epi64(b, 52), two52)), _mm256_set1_pd(0x1p52 + 1023.0));
+    *m = _mm256_castsi256_pd(_mm256_or_si256(_mm256_and_si256(b, _mm256_set1_epi64x(0x000fffffffffffffll)),
+                                             _mm256_set1_epi64x(0x3ff0000000000000ll)));
+}
 #endif

@@ -53,4 +53,46 @@ static inline void v_frexp_centered(vf x, vf *m, vf *e)
     *m = mf;
     *e = _mm512_cvtepi32_ps(ei);
 }
+
+/* Doubles for the deep zoom's estimate (zoom_lanes.h): 8 per vector, two per packet. Only IEEE
+ * + - * / sqrt, min, max and compares, no fused multiply-add: the bits of zoom.c's scalar code
+ * (compiled without FMA, and -ffp-contract=off keeps the compiler from fusing these). */
+#define VD_LANES 8
+typedef __m512d vd;
+typedef __mmask8 vdm;
+static inline vd vd_set1(double x) { return _mm512_set1_pd(x); }
+static inline vd vd_load(const double *p) { return _mm512_loadu_pd(p); }
+static inline void vd_store(double *p, vd a) { _mm512_storeu_pd(p, a); }
+static inline vd vd_add(vd a, vd b) { return _mm512_add_pd(a, b); }
+static inline vd vd_sub(vd a, vd b) { return _mm512_sub_pd(a, b); }
+static inline vd vd_mul(vd a, vd b) { return _mm512_mul_pd(a, b); }
+static inline vd vd_sqrt(vd a) { return _mm512_sqrt_pd(a); }
+static inline vd vd_div(vd a, vd b) { return _mm512_div_pd(a, b); }
+static inline vd vd_floor(vd a) { return _mm512_roundscale_pd(a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC); }
+/* a < b ? a : b and a > b ? a : b (NaN: b), as vminpd / vmaxpd. */
+static inline vd vd_min(vd a, vd b) { return _mm512_min_pd(a, b); }
+static inline vd vd_max(vd a, vd b) { return _mm512_max_pd(a, b); }
+static inline vdm vd_lt(vd a, vd b) { return _mm512_cmp_pd_mask(a, b, _CMP_LT_OQ); }
+static inline vdm vd_gt(vd a, vd b) { return _mm512_cmp_pd_mask(a, b, _CMP_GT_OQ); }
+static inline vdm vd_ge(vd a, vd b) { return _mm512_cmp_pd_mask(a, b, _CMP_GE_OQ); }
+static inline vdm vdm_and(vdm a, vdm b) { return (vdm)(a & b); }
+static inline vdm vdm_or(vdm a, vdm b) { return (vdm)(a | b); }
+static inline vdm vdm_andnot(vdm a, vdm b) { return (vdm)(~a & b); } /* !a & b */
+static inline int vdm_bits(vdm a) { return (int)a; }
+static inline vdm vdm_from_bits(int bits) { return (vdm)bits; }
+static inline vd vd_select(vdm m, vd a, vd b) { return _mm512_mask_blend_pd(m, b, a); } /* m ? a : b */
+/* The double at byte offset `offset` (an integer below 2^31) from base, in the lanes of m; the
+ * others keep src. */
+static inline vd vd_gather(vd src, vdm m, const void *base, vd offset)
+{
+    return _mm512_mask_i32gather_pd(src, m, _mm512_cvttpd_epi32(offset), base, 1);
+}
+/* Positive normal x = m 2^e, m in [1, 2), by its bits (e exact, as a double). */
+static inline void vd_split_exponent(vd x, vd *m, vd *e)
+{
+    const __m512i b = _mm512_castpd_si512(x), two52 = _mm512_set1_epi64(0x4330000000000000ll);
+    *e = _mm512_sub_pd(_mm512_castsi512_pd(_mm512_or_si512(_mm512_srli_epi64(b, 52), two52)), _mm512_set1_pd(0x1p52 + 1023.0));
+    *m = _mm512_castsi512_pd(_mm512_or_si512(_mm512_and_si512(b, _mm512_set1_epi64(0x000fffffffffffffll)),
+                                             _mm512_set1_epi64(0x3ff0000000000000ll)));
+}
 #endif

@@ -178,12 +178,15 @@ static inline float ub_expf(float x) { return (float)ub_exp((double)x); }
  * x = 2^k m, m in [sqrt(1/2), sqrt(2)); log m = 2 atanh(s) = 2s + s^3 T(s^2), s = f / (2 + f),
  * f = m - 1 (exact); s in double-double, T's Taylor series to s^25 (|s| <= 0.1716, truncation
  * below 2^-62 relative). */
+/* The series of ub__log_dd (also zoom_lanes.h's lane-parallel twin): 2/(2i + 3), i = 0..11. */
+static const double ub__log_series[12] = {
+    0x1.5555555555555p-1, 0x1.999999999999ap-2, 0x1.2492492492492p-2, 0x1.c71c71c71c71cp-3,
+    0x1.745d1745d1746p-3, 0x1.3b13b13b13b14p-3, 0x1.1111111111111p-3, 0x1.e1e1e1e1e1e1ep-4,
+    0x1.af286bca1af28p-4, 0x1.8618618618618p-4, 0x1.642c8590b2164p-4, 0x1.47ae147ae147bp-4};
+
 static inline double ub__log_dd(double x, double *lo)
 {
-    static const double series[12] = {
-        0x1.5555555555555p-1, 0x1.999999999999ap-2, 0x1.2492492492492p-2, 0x1.c71c71c71c71cp-3,
-        0x1.745d1745d1746p-3, 0x1.3b13b13b13b14p-3, 0x1.1111111111111p-3, 0x1.e1e1e1e1e1e1ep-4,
-        0x1.af286bca1af28p-4, 0x1.8618618618618p-4, 0x1.642c8590b2164p-4, 0x1.47ae147ae147bp-4};
+    const double *series = ub__log_series;
     int k = 0;
     if (x < 0x1p-1022) { /* subnormal: scale into the normal range (exact) */
         x *= 0x1p54;

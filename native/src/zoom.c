@@ -466,47 +466,50 @@ static void sym_product(const double z[4], const double h[4], double out[4])
 }
 
 
-void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_result *res)
+void ub_zoom_start(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_state *s)
 {
     const ub_zoom *zm = &o->zoom;
     const int julia = o->kind == UB_KIND_QUATERNION_JULIA;
-    const double bail2 = o->bailout * o->bailout;
-    double offset[4], z[4], delta[4], dc[4];
+    double offset[4];
     for (int k = 0; k < 4; k++) {
         offset[k] = zm->scale * u_q[k];
-        z[k] = zm->anchor_q[k] + offset[k];
+        s->z[k] = zm->anchor_q[k] + offset[k];
     }
-    /* The reference the point follows (NULL: none, delta is z itself) and what is added per step
-     * on top of the reference's own step: dc. */
-    const double(*orbit)[4] = NULL;
-    int length = 0, index = 0;
-    if (path == UB_ZOOM_PERTURBATION) {
-        orbit = zm->ref;
-        length = zm->ref_length;
-        index = julia ? 0 : 1;
-        memcpy(delta, offset, sizeof delta);
+    /* The reference the point follows (direct: none, delta is z itself) and what is added per
+     * step on top of the reference's own step: dc. */
+    s->direct = path != UB_ZOOM_PERTURBATION;
+    s->on_crit = 0;
+    s->length = zm->ref_length;
+    s->index = 0;
+    if (!s->direct) {
+        s->index = julia ? 0 : 1;
+        memcpy(s->delta, offset, sizeof s->delta);
         for (int k = 0; k < 4; k++)
-            dc[k] = julia ? 0.0 : offset[k];
+            s->dc[k] = julia ? 0.0 : offset[k];
     } else {
-        memcpy(delta, z, sizeof delta);
+        memcpy(s->delta, s->z, sizeof s->delta);
         for (int k = 0; k < 4; k++)
-            dc[k] = julia ? zm->mu[k] : z[k];
+            s->dc[k] = julia ? zm->mu[k] : s->z[k];
     }
     /* The full c of direct iteration, should the reference end before the point escapes. */
-    double c_full[4];
     for (int k = 0; k < 4; k++)
-        c_full[k] = julia ? zm->mu[k] : z[k];
+        s->c_full[k] = julia ? zm->mu[k] : s->z[k];
 
-    double r2 = norm2_of(z), dr2 = 1.0, dm = 1.0, trap = r2, gscale = 1.0;
-    double j[3][4], add_scale = 1.0;
+    s->r2 = norm2_of(s->z);
+    s->dr2 = 1.0;
+    s->dm = 1.0;
+    s->trap = s->r2;
+    s->gscale = 1.0;
+    s->add_scale = 1.0;
     if (want & UB_WANT_JACOBIAN)
         for (int a = 0; a < 3; a++)
             for (int k = 0; k < 4; k++)
-                j[a][k] = o->slice_basis[k][a];
-    int n = 0;
-    if (orbit && julia && zm->skip_count > 0) {
+                s->j[a][k] = o->slice_basis[k][a];
+    s->n = 0;
+    s->rebases = 0;
+    if (!s->direct && julia && zm->skip_count > 0) {
         /* The largest skip whose radius holds this point's delta_0 (radii shrink with K). */
-        double d0 = sqrt(norm2_of(delta));
+        double d0 = sqrt(norm2_of(s->delta));
         int lo = 0, hi = zm->skip_count;
         while (lo < hi) {
             int mid = (lo + hi + 1) / 2;
@@ -520,25 +523,35 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
             const double(*m)[4] = zm->skip[lo].matrix;
             double nd[4];
             for (int r = 0; r < 4; r++)
-                nd[r] = m[r][0] * delta[0] + m[r][1] * delta[1] + m[r][2] * delta[2] + m[r][3] * delta[3];
-            memcpy(delta, nd, sizeof delta);
+                nd[r] = m[r][0] * s->delta[0] + m[r][1] * s->delta[1] + m[r][2] * s->delta[2] + m[r][3] * s->delta[3];
+            memcpy(s->delta, nd, sizeof s->delta);
             if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same linear maps */
                 for (int a = 0; a < 3; a++) {
                     double nj[4];
                     for (int r = 0; r < 4; r++)
-                        nj[r] = m[r][0] * j[a][0] + m[r][1] * j[a][1] + m[r][2] * j[a][2] + m[r][3] * j[a][3];
-                    memcpy(j[a], nj, sizeof nj);
+                        nj[r] = m[r][0] * s->j[a][0] + m[r][1] * s->j[a][1] + m[r][2] * s->j[a][2]
+                                + m[r][3] * s->j[a][3];
+                    memcpy(s->j[a], nj, sizeof nj);
                 }
-            index = n = K;
+            s->index = s->n = K;
             for (int k = 0; k < 4; k++)
-                z[k] = orbit[index][k] + delta[k];
-            r2 = norm2_of(z);
-            dr2 = zm->skip[lo].dr2;
-            trap = zm->skip[lo].trap;
-            gscale = ldexp(1.0, -K);
+                s->z[k] = zm->ref[K][k] + s->delta[k];
+            s->r2 = norm2_of(s->z);
+            s->dr2 = zm->skip[lo].dr2;
+            s->trap = zm->skip[lo].trap;
+            s->gscale = ldexp(1.0, -K);
         }
     }
-    for (int it = n; it < o->max_iterations; it++) {
+}
+
+void ub_zoom_iterate(const ub_object *o, ub_zoom_state *s, int want)
+{
+    const ub_zoom *zm = &o->zoom;
+    const int julia = o->kind == UB_KIND_QUATERNION_JULIA;
+    const double bail2 = o->bailout * o->bailout;
+    double *z = s->z, *delta = s->delta, *dc = s->dc, (*j)[4] = s->j;
+    const double(*orbit)[4] = s->direct ? NULL : s->on_crit ? zm->crit : zm->ref;
+    for (int it = s->n; it < o->max_iterations; it++) {
         if (want & UB_WANT_JACOBIAN) {
             double big = 0.0;
             for (int a = 0; a < 3; a++) {
@@ -546,7 +559,7 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
                 sym_product(z, j[a], nj);
                 if (!julia)
                     for (int k = 0; k < 4; k++)
-                        nj[k] += add_scale * o->slice_basis[k][a];
+                        nj[k] += s->add_scale * o->slice_basis[k][a];
                 memcpy(j[a], nj, sizeof nj);
                 big = fmax(big, norm2_of(nj));
             }
@@ -554,20 +567,21 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
                 for (int a = 0; a < 3; a++)
                     for (int k = 0; k < 4; k++)
                         j[a][k] *= 1e-100;
-                add_scale *= 1e-100;
+                s->add_scale *= 1e-100;
             }
         }
         if (julia)
-            dr2 *= 4.0 * r2;
+            s->dr2 *= 4.0 * s->r2;
         else
-            dm = 2.0 * sqrt(r2) * dm + 1.0;
-        if (orbit && index + 1 >= length) {
+            s->dm = 2.0 * sqrt(s->r2) * s->dm + 1.0;
+        if (orbit && s->index + 1 >= s->length) {
             /* The reference escaped (or its storage ended) before this point: go on directly.
              * The point's orbit is the size of the escape radius here, where double's rounding
              * is harmless. */
-            memcpy(delta, z, sizeof delta);
-            memcpy(dc, c_full, sizeof dc);
+            memcpy(delta, z, sizeof s->delta);
+            memcpy(dc, s->c_full, sizeof s->dc);
             orbit = NULL;
+            s->direct = 1;
         }
         /* delta <- Z delta + delta Z + delta^2 + dc, with Z = 0 when there is no reference. */
         double nd[4];
@@ -575,7 +589,7 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
         if (orbit) {
             /* (Z + delta)^2 - Z^2 = Z delta + delta Z + delta^2 (Z = (a, v), delta = (p, w)):
              * real part p (2a + p) - w.(2v + w), vector part 2 (a + p) w + 2 p v. */
-            const double *ref = orbit[index];
+            const double *ref = orbit[s->index];
             nd[0] = p * (2.0 * ref[0] + p);
             for (int k = 1; k < 4; k++)
                 nd[0] -= delta[k] * (2.0 * ref[k] + delta[k]);
@@ -589,54 +603,71 @@ void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int wan
         for (int k = 0; k < 4; k++)
             delta[k] = nd[k] + dc[k];
         if (orbit) {
-            index++;
+            s->index++;
             for (int k = 0; k < 4; k++)
-                z[k] = orbit[index][k] + delta[k];
+                z[k] = orbit[s->index][k] + delta[k];
             if (norm2_of(z) < norm2_of(delta)) {
                 /* Glitch: rebase onto the critical orbit, whose entry 0 is the critical point 0
                  * (the Julia reference cannot serve; for the Mandelbrot set it is the anchor's own
                  * orbit from 0, and delta_c stays). */
-                memcpy(delta, z, sizeof delta);
+                memcpy(delta, z, sizeof s->delta);
                 orbit = zm->crit;
-                length = zm->crit_length;
-                index = 0;
+                s->on_crit = 1;
+                s->length = zm->crit_length;
+                s->index = 0;
+                s->rebases++;
                 if (julia)
                     for (int k = 0; k < 4; k++)
                         dc[k] = 0.0;
             }
         } else {
-            memcpy(z, delta, sizeof z);
+            memcpy(z, delta, sizeof s->z);
         }
         double nr2 = norm2_of(z);
-        r2 = nr2;
-        trap = fmin(trap, nr2);
-        gscale *= 0.5;
-        n++;
+        s->r2 = nr2;
+        s->trap = fmin(s->trap, nr2);
+        s->gscale *= 0.5;
+        s->n++;
         if (nr2 > bail2)
             break;
     }
+}
+
+void ub_zoom_finish(const ub_object *o, const ub_zoom_state *s, int want, ub_zoom_result *res)
+{
+    const int julia = o->kind == UB_KIND_QUATERNION_JULIA;
+    const double bail2 = o->bailout * o->bailout;
+    const double r2 = s->r2;
     int escaped = r2 > bail2;
     double est = 0.0, lr2 = escaped ? ub_log(r2) : 0.0;
     if (escaped) {
-        if (!julia)
-            dr2 = dm * dm;
-        est = sqrt(r2 / dr2) * lr2 * 0.25 / zm->scale; /* fractal units -> local units */
+        double dr2 = julia ? s->dr2 : s->dm * s->dm;
+        est = sqrt(r2 / dr2) * lr2 * 0.25 / o->zoom.scale; /* fractal units -> local units */
     }
     res->dist = est;
-    res->iterations = n;
-    res->trap = sqrt(trap);
-    res->potential = escaped ? lr2 * 0.5 * gscale : 0.0;
+    res->iterations = s->n;
+    res->rebases = s->rebases;
+    res->trap = sqrt(s->trap);
+    res->potential = escaped ? lr2 * 0.5 * s->gscale : 0.0;
     if (want & UB_WANT_JACOBIAN) {
         /* Only the direction is used: unit length, so float32 holds it. */
         double len2 = 0.0;
         for (int a = 0; a < 3; a++) {
-            res->normal[a] = z[0] * j[a][0] + z[1] * j[a][1] + z[2] * j[a][2] + z[3] * j[a][3];
+            res->normal[a] = s->z[0] * s->j[a][0] + s->z[1] * s->j[a][1] + s->z[2] * s->j[a][2] + s->z[3] * s->j[a][3];
             len2 += res->normal[a] * res->normal[a];
         }
         double inv = len2 > 0.0 && len2 < HUGE_VAL ? 1.0 / sqrt(len2) : 0.0;
         for (int a = 0; a < 3; a++)
             res->normal[a] *= inv;
     }
+}
+
+void ub_zoom_estimate(const ub_object *o, int path, const double u_q[4], int want, ub_zoom_result *res)
+{
+    ub_zoom_state s;
+    ub_zoom_start(o, path, u_q, want, &s);
+    ub_zoom_iterate(o, &s, want);
+    ub_zoom_finish(o, &s, want, res);
 }
 
 const char *ub_zoom_anchor_move(const char *anchor_text, double zoom, const double u[3], int digits, char *out,

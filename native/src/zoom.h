@@ -3,7 +3,7 @@
  * Precision. The march itself stays in the kernels' float32, in local units: there the camera,
  * the pixel footprint and the hit threshold have the sizes they have at zoom 0, so float32
  * resolves the pixel as well as it does today. Only the distance estimate has to see the fractal
- * at 10^-zoom, and it runs here, scalar, once per lane, in one of two paths chosen per object and
+ * at 10^-zoom, and it runs in double, in one of two paths chosen per object and
  * render from the hit threshold in fractal units (ub_zoom_choose_path):
  *   - double: z0 = Q + 10^-zoom B u iterated in double, while the threshold is above 2^-36 of the
  *     fractal's coordinates (about zoom 7 at a pixel threshold);
@@ -13,9 +13,11 @@
  *     Mandelbrot set): exact, the quaternions' order kept. Where |Z_k + delta_k| < |delta_k| the
  *     reference no longer serves (glitch) and the point is rebased onto the critical orbit
  *     (0, mu, mu^2 + mu, ...) with delta = z (Zhuoran's rebasing).
- * This file is compiled once: both kernels (AVX2 and portable) call the same code, so they agree
- * bit for bit; only IEEE + - * / sqrt and the core's own log (ubmath.h) reach its results, and the
- * anchor's arithmetic is integer (the same bits on every platform).
+ * The kernels run it lane-parallel in double (zoom_lanes.h, compiled per kernel); zoom.c keeps the
+ * scalar reference (ub_zoom_estimate: start, iterations, finish) the tests compare them with. Only IEEE
+ * + - * / sqrt (never fused) and the core's own log (ubmath.h) reach the results, so every kernel and
+ * the reference agree bit for bit, and the anchor's arithmetic is integer (the same bits on every
+ * platform).
  *
  * Why fixed point and not quad-double or mpmath: the anchor and the reference orbits are bounded
  * (|z| <= bailout), so a fixed binary point loses nothing; integer limbs have no rounding modes,

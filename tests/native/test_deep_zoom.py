@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import unbound_core as uc
-from conftest import make_camera, rays_float64, render
+from conftest import KERNELS, make_camera, rays_float64, render
 from reference import deep_zoom_referee as ref
 
 NORMAL = np.array([0.6, 0.8, 0.0])  # the anchor "0.6 0.8 0" on the unit sphere is its own normal
@@ -190,6 +190,107 @@ def test_no_pop_where_the_path_switches(surface):
     across = change(1.001, 0.999)
     print("depth change, median / 95 %% / max: across the switch %s, within a path %s" % (across, within))
     assert across[0] <= 1.25 * within[0] and across[1] <= 1.25 * within[1] and across[2] <= within[2]
+
+
+# ------------------------------------------------------------------ the lane-parallel estimate
+
+PROBE_WANTS = (0, 3, 4, 7)  # nothing; trap + potential; the normal; all
+
+
+def probe(obj, points, path, want, **kw):
+    """The private hook: per point distance, iterations, trap, potential, normal (3), rebases."""
+    raw = uc._native._zoom_probe(obj, points, path, want, **kw)
+    return np.frombuffer(raw, np.float64).reshape(len(points), 8)
+
+
+def mandelbrot_anchor(zoom):
+    exact_set = ref.Mandelbrot(MU, ref.iterations_for_zoom(BASE_ITERATIONS, zoom))
+    direction = np.array([0.1, -1.0, -0.2])
+    anchor = ref.surface_anchor(exact_set, np.array([-0.6, 0.7, 0.2]), direction / np.linalg.norm(direction),
+                                decimal.Decimal(10) ** -(zoom + 1))
+    return ref.anchor_text(anchor, zoom + 12)
+
+
+# mu outside the Mandelbrot set (just past the cusp at 1/4): 0 escapes, slowly. The anchor Q = i
+# sqrt(mu - 10^-zoom) has Z_1 = Q^2 + mu = 10^-zoom (to its 40 digits), the size of the points'
+# delta_1 ~ 2 |Q| 10^-zoom u: where delta_1's real part -2 |Q| u_y 10^-zoom is below -Z_1 / 2 (u_y
+# above 1 / (4 |Q|) ~ 0.49 local units) the point is nearer 0 than the reference, |Z_1 + delta_1| <
+# |delta_1|: a glitch. It goes on along the critical orbit 0, mu, ..., which also escapes (so the
+# rebased lanes outrun that reference too and end directly).
+REBASE_MU = (0.26, 0.0, 0.0, 0.0)
+
+
+def rebase_anchor(zoom):
+    with decimal.localcontext(ref.CONTEXT):
+        root = (ref.exact(np.float32(REBASE_MU[0])) - decimal.Decimal(10) ** -zoom).sqrt()
+    return "0 %s 0" % ref.anchor_text([root], 40)
+
+
+def rebase_points(count, seed):
+    """Local points with u_y in [1, 3]: all of them glitch at their first step."""
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(-1, 1, count), rng.uniform(1, 3, count),
+                            rng.uniform(-1, 1, count)]).astype(np.float32)
+
+
+def probe_points(count, seed):
+    """Object-space points from 1e-4 to 3 local units around the anchor, some on the surface's side."""
+    rng = np.random.default_rng(seed)
+    return (rng.standard_normal((count, 3)) * 10.0 ** rng.uniform(-4.0, 0.5, (count, 1))).astype(np.float32)
+
+
+@pytest.mark.parametrize("kind, zoom, path", [
+    ("quaternion_julia", 5, "double"), ("quaternion_julia", 10, "perturbation"),
+    ("quaternion_julia", 30, "perturbation"), ("quaternion_mandelbrot", 5, "double"),
+    ("quaternion_mandelbrot", 20, "perturbation"), ("rebase", 10, "perturbation")])
+def test_lanes_give_the_scalar_reference_bits(surface, kind, zoom, path):
+    """The kernels' lane-parallel estimate (zoom_lanes.h) against zoom.c's scalar ub_zoom_estimate,
+    bit for bit, in every kernel this CPU runs and for every set of extras: the double path, the
+    perturbation with the skip table (Julia), delta_c (Mandelbrot), glitches and the reference's end."""
+    if kind == "rebase":
+        obj = dict(mu=REBASE_MU, max_iterations=BASE_ITERATIONS, zoom=float(zoom), zoom_anchor=rebase_anchor(zoom))
+    elif kind == "quaternion_julia":
+        obj = dict(mu=MU, max_iterations=BASE_ITERATIONS, zoom=float(zoom),
+                   zoom_anchor=ref.anchor_text(surface[0], zoom + 12))
+    else:
+        obj = dict(kind=kind, mu=MU, max_iterations=BASE_ITERATIONS, zoom=float(zoom),
+                   zoom_anchor=mandelbrot_anchor(zoom))
+    points = rebase_points(1000, zoom) if kind == "rebase" else probe_points(1000, zoom)
+    for want in PROBE_WANTS:
+        scalar = probe(obj, points, path, want, scalar=True)
+        for simd in KERNELS:
+            lanes = probe(obj, points, path, want, simd=simd)
+            assert lanes.tobytes() == scalar.tobytes(), (simd, want, np.nonzero((lanes != scalar).any(1))[0][:5])
+    escaped = scalar[:, 0] > 0
+    assert 0.1 < escaped.mean() and (~escaped).sum() + escaped.sum() == len(points)
+    if kind == "rebase":
+        assert np.all(scalar[:, 7] >= 1)
+
+
+@pytest.mark.parametrize("zoom", [10, 30])
+def test_rebasing_onto_the_critical_orbit_agrees_with_the_referee(zoom):
+    """Every point near an anchor whose reference orbit comes within 10^-zoom of 0 glitches at its
+    first step (counted) and is rebased onto the critical orbit; its estimate still agrees with the
+    referee's exact one (no reference orbit at all): in double (the probe) to 1e-9, and through
+    uc.estimate (the kernel's own path, float32, FLT_MAX at most) to float32's last digits. The
+    estimates are huge (z_1 ~ 10^-zoom makes the derivative tiny), which is no matter here."""
+    text = rebase_anchor(zoom)
+    anchor_exact = [decimal.Decimal(v) for v in text.split()]
+    iterations = ref.iterations_for_zoom(BASE_ITERATIONS, zoom)
+    julia = ref.Julia(REBASE_MU, iterations)
+    obj = dict(mu=REBASE_MU, max_iterations=BASE_ITERATIONS, zoom=float(zoom), zoom_anchor=text)
+    points = rebase_points(24, 7)
+    probed = probe(obj, points, "perturbation", 0)
+    assert np.all(probed[:, 7] >= 1), probed[:, 7]
+    scale = decimal.Decimal(10) ** -zoom
+    exact_est = np.array([float(julia.estimate(ref.point(anchor_exact, zoom, p)) / scale) for p in points])
+    assert np.all(exact_est > 0)  # mu is outside the Mandelbrot set: everything escapes
+    np.testing.assert_allclose(probed[:, 0], exact_est, rtol=1e-9)
+    est = np.zeros(len(points), np.float32)
+    iters = np.zeros(len(points), np.float32)
+    uc.estimate(obj, points, est, iters)
+    np.testing.assert_allclose(est, np.minimum(exact_est, np.finfo(np.float32).max), rtol=1e-5)
+    np.testing.assert_array_equal(iters, probed[:, 1])
 
 
 # ------------------------------------------------------------------ the interface
