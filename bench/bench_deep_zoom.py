@@ -22,7 +22,7 @@ threshold, --res, --threads. Interleaved, --repeats times:
 Printed: median wall time, min-max, the CPU time (process, all threads) and the ratios to the
 float32 run of the same iteration count.
 
-    python bench/bench_deep_zoom.py [--repeats 5] [--res 160x120] [--threads 2]
+    python bench/bench_deep_zoom.py [--repeats 5] [--res 160x120] [--threads 2] [--simd auto]
 """
 from __future__ import annotations
 
@@ -56,11 +56,11 @@ def surface_anchor():
     return p, direction
 
 
-def run(camera, obj, threads):
+def run(camera, obj, threads, simd):
     w, h = camera["width"], camera["height"]
     passes = {n: np.zeros((h, w, uc.PASS_CHANNELS[n]), np.float32) for n in ("combined", "depth")}
     wall, cpu = time.perf_counter(), time.process_time()
-    stats = uc.render(camera, [obj], passes, threads=threads)
+    stats = uc.render(camera, [obj], passes, threads=threads, simd=simd)
     return time.perf_counter() - wall, time.process_time() - cpu, passes, stats["iterations"]
 
 
@@ -69,6 +69,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--res", default="160x120")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--simd", default="auto", help="kernel: auto, avx512, avx2 or portable")
     args = ap.parse_args()
     width, height = map(int, args.res.split("x"))
     anchor, direction = surface_anchor()
@@ -96,7 +97,7 @@ def main():
     coverage, iteration_count = {}, {}
     for _ in range(args.repeats):
         for name, (cam, obj, _) in runs.items():
-            wall, cpu, passes, iteration_count[name] = run(cam, obj, args.threads)
+            wall, cpu, passes, iteration_count[name] = run(cam, obj, args.threads, args.simd)
             times[name][0].append(wall)
             times[name][1].append(cpu)
             coverage[name] = float((passes["depth"] < 1e9).mean())

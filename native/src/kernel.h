@@ -834,22 +834,10 @@ void UB_ENTRY(ub_zoom_probe)(const ub_object *o, int path, int want, int scalar,
                 q[k][l] = ql[k];
         }
         zoom_out r;
-        if (scalar) {
-            for (size_t l = 0; l < n; l++) {
-                const double uq[4] = {q[0][l], q[1][l], q[2][l], q[3][l]};
-                ub_zoom_result one;
-                ub_zoom_estimate(o, path, uq, want, &one);
-                r.dist[l] = one.dist;
-                r.iterations[l] = one.iterations;
-                r.trap[l] = one.trap;
-                r.potential[l] = one.potential;
-                for (int a = 0; a < 3; a++)
-                    r.normal[a][l] = one.normal[a];
-                r.rebases[l] = one.rebases;
-            }
-        } else {
+        if (scalar)
+            zoom_lanes_scalar(o, path, (1 << n) - 1, q, want, &r);
+        else
             zoom_lanes(o, path, (1 << n) - 1, q, want, &r);
-        }
         for (size_t l = 0; l < n; l++) {
             double *row = out + UB_ZOOM_PROBE_VALUES * (base + l);
             row[0] = r.dist[l];

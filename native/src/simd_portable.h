@@ -66,46 +66,4 @@ static inline void v_frexp_centered(vf x, vf *m, vf *e)
     }
 }
 
-/* Doubles for the deep zoom's estimate (zoom_lanes.h): 4 per vector, two per packet, in plain C;
- * the bit-exact twin of simd_avx2.h's (IEEE + - * sqrt, no fused multiply-add). */
-#define VD_LANES 4
-typedef struct { double v[4]; } vd;
-typedef struct { int64_t v[4]; } vdm; /* -1 = true, 0 = false */
-#define VD_LOOP(i) for (int i = 0; i < 4; i++)
-static inline vd vd_set1(double x) { vd r; VD_LOOP(i) r.v[i] = x; return r; }
-static inline vd vd_load(const double *p) { vd r; memcpy(r.v, p, sizeof r.v); return r; }
-static inline void vd_store(double *p, vd a) { memcpy(p, a.v, sizeof a.v); }
-static inline vd vd_add(vd a, vd b) { VD_LOOP(i) a.v[i] = a.v[i] + b.v[i]; return a; }
-static inline vd vd_sub(vd a, vd b) { VD_LOOP(i) a.v[i] = a.v[i] - b.v[i]; return a; }
-static inline vd vd_mul(vd a, vd b) { VD_LOOP(i) a.v[i] = a.v[i] * b.v[i]; return a; }
-static inline vd vd_sqrt(vd a) { VD_LOOP(i) a.v[i] = sqrt(a.v[i]); return a; }
-static inline vd vd_div(vd a, vd b) { VD_LOOP(i) a.v[i] = a.v[i] / b.v[i]; return a; }
-static inline vd vd_floor(vd a) { VD_LOOP(i) a.v[i] = floor(a.v[i]); return a; }
-static inline vd vd_min(vd a, vd b) { VD_LOOP(i) a.v[i] = a.v[i] < b.v[i] ? a.v[i] : b.v[i]; return a; }
-static inline vd vd_max(vd a, vd b) { VD_LOOP(i) a.v[i] = a.v[i] > b.v[i] ? a.v[i] : b.v[i]; return a; }
-static inline vdm vd_lt(vd a, vd b) { vdm r; VD_LOOP(i) r.v[i] = a.v[i] < b.v[i] ? -1 : 0; return r; }
-static inline vdm vd_gt(vd a, vd b) { vdm r; VD_LOOP(i) r.v[i] = a.v[i] > b.v[i] ? -1 : 0; return r; }
-static inline vdm vd_ge(vd a, vd b) { vdm r; VD_LOOP(i) r.v[i] = a.v[i] >= b.v[i] ? -1 : 0; return r; }
-static inline vdm vdm_and(vdm a, vdm b) { VD_LOOP(i) a.v[i] &= b.v[i]; return a; }
-static inline vdm vdm_or(vdm a, vdm b) { VD_LOOP(i) a.v[i] |= b.v[i]; return a; }
-static inline vdm vdm_andnot(vdm a, vdm b) { VD_LOOP(i) a.v[i] = ~a.v[i] & b.v[i]; return a; }
-static inline int vdm_bits(vdm a) { int b = 0; VD_LOOP(i) b |= (a.v[i] ? 1 : 0) << i; return b; }
-static inline vdm vdm_from_bits(int bits) { vdm r; VD_LOOP(i) r.v[i] = (bits >> i) & 1 ? -1 : 0; return r; }
-static inline vd vd_select(vdm m, vd a, vd b) { VD_LOOP(i) a.v[i] = m.v[i] ? a.v[i] : b.v[i]; return a; }
-static inline vd vd_gather(vd src, vdm m, const void *base, vd offset)
-{
-    VD_LOOP(i) if (m.v[i]) memcpy(&src.v[i], (const char *)base + (ptrdiff_t)offset.v[i], sizeof(double));
-    return src;
-}
-/* Positive normal x = m 2^e, m in [1, 2), by its bits (e exact, as a double). */
-static inline void vd_split_exponent(vd x, vd *m, vd *e)
-{
-    VD_LOOP(i) {
-        uint64_t b;
-        memcpy(&b, &x.v[i], 8);
-        e->v[i] = (double)(int)(b >> 52) - 1023.0;
-        b = (b & 0x000fffffffffffffull) | 0x3ff0000000000000ull;
-        memcpy(&m->v[i], &b, 8);
-    }
-}
 #endif

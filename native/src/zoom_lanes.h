@@ -1,8 +1,7 @@
-/* Deep zoom (issue 18), lane-parallel: the iterations of zoom.c's ub_zoom_iterate for all the
- * lanes of a packet at once, in the double vectors (vd, VD_LANES per vector) of the kernel's
- * simd_*.h; included by estimators.h, so compiled once per kernel. The start (z0, the reference,
- * the skip table's linear start) and the finish (the log, the estimate, the normal) stay zoom.c's
- * scalar code, once per lane and estimate against the 20 to 250 iterations in between.
+/* Deep zoom (issue 18), lane-parallel: zoom.c's ub_zoom_start, ub_zoom_iterate and ub_zoom_finish
+ * for all the lanes of a packet at once, in the double vectors (vd, VD_LANES per vector) of the
+ * AVX2 and AVX-512 kernels' simd_*.h; included by estimators.h, so compiled once per kernel. The
+ * portable kernel runs zoom.c's scalar code lane by lane (zoom_lanes_scalar).
  *
  * Same bits: each lane runs the scalar loop's operations in its order, IEEE + - * sqrt, min and
  * max, never fused (-ffp-contract=off, no FMA intrinsic here), so the three kernels and the scalar
@@ -15,6 +14,39 @@
  * case) it is one broadcast load per component, else a gather. */
 
 #include "ubmath.h" /* ub_log's series and constants */
+
+/* What a packet's estimate yields, per lane (ub_zoom_result's fields). */
+typedef struct {
+    double dist[UB_LANES], iterations[UB_LANES], trap[UB_LANES], potential[UB_LANES], normal[3][UB_LANES];
+    double rebases[UB_LANES];
+} zoom_out;
+
+/* zoom.c's scalar reference, lane by lane, for the lanes `bits` of the packet q: what the vectors
+ * below must equal bit for bit (the probe compares them), and the portable kernel's own path: its
+ * plain-C vectors of 4 doubles measured slower than the scalar code at zoom 30 (5.6 against 3.4 ns
+ * CPU per iteration on x86-64), where the skip table leaves few iterations per call. */
+static void zoom_lanes_scalar(const ub_object *o, int path, int bits, const float q[4][UB_LANES], const int want,
+                              zoom_out *out)
+{
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((bits >> l) & 1))
+            continue;
+        const double uq[4] = {q[0][l], q[1][l], q[2][l], q[3][l]};
+        ub_zoom_result one;
+        ub_zoom_estimate(o, path, uq, want, &one);
+        out->dist[l] = one.dist;
+        out->iterations[l] = one.iterations;
+        out->trap[l] = one.trap;
+        out->potential[l] = one.potential;
+        for (int a = 0; a < 3; a++)
+            out->normal[a][l] = one.normal[a];
+        out->rebases[l] = one.rebases;
+    }
+}
+
+#ifndef VD_LANES /* the portable kernel */
+#define zoom_lanes zoom_lanes_scalar
+#else
 
 #define ZOOM_VECTORS (UB_LANES / VD_LANES)
 #define ZOOM_ENTRY ((int)sizeof(double[4])) /* bytes per reference entry */
@@ -353,11 +385,6 @@ static inline vd zoom_log(vd x)
     return vd_add(hi, lo);
 }
 
-/* What a packet's estimate yields, per lane (ub_zoom_result's fields). */
-typedef struct {
-    double dist[UB_LANES], iterations[UB_LANES], trap[UB_LANES], potential[UB_LANES], normal[3][UB_LANES];
-    double rebases[UB_LANES];
-} zoom_out;
 
 /* ub_zoom_finish for VD_LANES lanes, into out's lanes from `first` on. */
 static void zoom_finish(const ub_object *o, const zoom_vector *v, const int want, zoom_out *out, int first)
@@ -415,3 +442,4 @@ static void zoom_lanes(const ub_object *o, int path, int bits, const float q[4][
     for (int h = 0; h < ZOOM_VECTORS; h++)
         zoom_finish(o, &v[h], want, out, h * VD_LANES);
 }
+#endif /* VD_LANES */
