@@ -442,32 +442,24 @@ static inline void de_ifs(const ub_de_params *p, vm lanes, vf x, vf y, vf z, con
 
 #include "zoom_lanes.h"
 
-/* A zoomed quaternion object: the double or perturbation estimate of zoom.c, lane-parallel in
- * double (zoom_lanes.h: the same bits in every kernel), for the lanes `lanes` only. */
-static void de_zoom(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, const int want, vf *dist, vf *iters,
-                    ub_de_extra *x)
+/* A zoomed estimate's lanes (zoom_out, double) as the kernels' float32 vectors: the lanes `wanted`,
+ * the extras `want` asks for. */
+static void zoom_out_vectors(const zoom_out *r, int wanted, const int want, vf *dist, vf *iters, ub_de_extra *x)
 {
-    float q[4][UB_LANES], ds[UB_LANES] = {0}, ns[UB_LANES] = {0}, ts[UB_LANES] = {0}, ps[UB_LANES] = {0};
+    float ds[UB_LANES] = {0}, ns[UB_LANES] = {0}, ts[UB_LANES] = {0}, ps[UB_LANES] = {0};
     float gs[3][UB_LANES] = {{0}};
-    const int wanted = m_bits(lanes);
-    v_store(q[0], a);
-    v_store(q[1], b);
-    v_store(q[2], c);
-    v_store(q[3], d);
-    zoom_out r;
-    zoom_lanes(p->obj, p->zoom_path, wanted, q, want, &r);
     for (int l = 0; l < UB_LANES; l++) {
         if (!((wanted >> l) & 1))
             continue;
-        ds[l] = (float)fmin(r.dist[l], FLT_MAX);
-        ns[l] = (float)r.iterations[l];
+        ds[l] = (float)fmax(fmin(r->dist[l], FLT_MAX), -FLT_MAX);
+        ns[l] = (float)r->iterations[l];
         if (want & UB_WANT_TRAP)
-            ts[l] = (float)r.trap[l];
+            ts[l] = (float)r->trap[l];
         if (want & UB_WANT_POTENTIAL)
-            ps[l] = (float)r.potential[l];
+            ps[l] = (float)r->potential[l];
         if (want & UB_WANT_JACOBIAN)
             for (int k = 0; k < 3; k++)
-                gs[k][l] = (float)r.normal[k][l];
+                gs[k][l] = (float)r->normal[k][l];
     }
     *dist = v_load(ds);
     *iters = v_load(ns);
@@ -480,36 +472,47 @@ static void de_zoom(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, con
             x->normal[k] = v_load(gs[k]);
 }
 
+/* A zoomed quaternion object: the double or perturbation estimate of zoom.c, lane-parallel in
+ * double (zoom_lanes.h: the same bits in every kernel), for the lanes `lanes` only. */
+static void de_zoom(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, const int want, vf *dist, vf *iters,
+                    ub_de_extra *x)
+{
+    float q[4][UB_LANES];
+    const int wanted = m_bits(lanes);
+    v_store(q[0], a);
+    v_store(q[1], b);
+    v_store(q[2], c);
+    v_store(q[3], d);
+    zoom_out r;
+    zoom_lanes(p->obj, p->zoom_path, wanted, q, want, &r);
+    zoom_out_vectors(&r, wanted, want, dist, iters, x);
+}
+
 /* A zoomed formula kind (Mandelbulb, Mandelbox, KIFS, hybrid): zoom_formulas.c's scalar double
  * estimate, lane by lane (compiled once, so every kernel gets its bits), for the lanes `lanes`
- * only. No Jacobian: these kinds' normals are gradients of the estimate. */
+ * only. No Jacobian: these kinds' normals are gradients of the estimate (the normal is 0 here). */
 static void de_zoom_formula(const ub_de_params *p, vm lanes, vf a, vf b, vf c, const int want, vf *dist, vf *iters,
                             ub_de_extra *x)
 {
-    float u[3][UB_LANES], ds[UB_LANES] = {0}, ns[UB_LANES] = {0}, ts[UB_LANES] = {0}, ps[UB_LANES] = {0};
+    float u[3][UB_LANES];
     const int wanted = m_bits(lanes);
     v_store(u[0], a);
     v_store(u[1], b);
     v_store(u[2], c);
+    zoom_out r;
+    memset(r.normal, 0, sizeof r.normal);
     for (int l = 0; l < UB_LANES; l++) {
         if (!((wanted >> l) & 1))
             continue;
         const double ul[3] = {u[0][l], u[1][l], u[2][l]};
-        ub_zoom_result r;
-        ub_zoom_formula_estimate(p->obj, ul, &r);
-        ds[l] = (float)fmax(fmin(r.dist, FLT_MAX), -FLT_MAX);
-        ns[l] = (float)r.iterations;
-        ts[l] = (float)r.trap;
-        ps[l] = (float)r.potential;
+        ub_zoom_result one;
+        ub_zoom_formula_estimate(p->obj, ul, &one);
+        r.dist[l] = one.dist;
+        r.iterations[l] = one.iterations;
+        r.trap[l] = one.trap;
+        r.potential[l] = one.potential;
     }
-    *dist = v_load(ds);
-    *iters = v_load(ns);
-    if (want & UB_WANT_TRAP)
-        x->trap = v_load(ts);
-    if (want & UB_WANT_POTENTIAL)
-        x->potential = v_load(ps);
-    if (want & UB_WANT_JACOBIAN)
-        x->normal[0] = x->normal[1] = x->normal[2] = v_set1(0.0f);
+    zoom_out_vectors(&r, wanted, want, dist, iters, x);
 }
 
 /* The distance estimate of the object's kind, with the extras `want` asks for, in the lanes
