@@ -237,6 +237,10 @@ static const ub_param render_rows[] = {
      "callable(fraction) -> True to cancel, called on the calling thread", 0, 0, 0, 0, 0, NULL},
     {"cancel", UB_PARAM_CUSTOM, 0, 1, 1, 0, 0, NULL, NULL, UB_PARAM_NONE_OK,
      "an object with is_set() (a threading.Event): set, the render stops", 0, 0, 0, 0, 0, NULL},
+    {"world", UB_PARAM_CUSTOM, 0, 1, 1, 0, 0, NULL, NULL, UB_PARAM_NONE_OK,
+     "the World's equirectangular map, float32 (height, width, 3), row 0 at the nadir: the background of "
+     "missed rays and a light at every hit (shading world_samples); None: the background colour", 0, 0, 0, 0, 0,
+     NULL},
 };
 #undef R
 const ub_param_section ub_render_section = {"render", ROWS(render_rows), sizeof(ub_render_input)};
