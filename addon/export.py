@@ -409,7 +409,7 @@ def light_description(light, matrix):
 # Scene.unbound properties that are shading keys of the same name.
 SHADING_KEYS = ("samples", "axle_light", "ambient", "shadows", "ao_strength", "ao_distance", "ao_samples",
                 "reflection_depth", "fog_density", "fog_color", "glow_strength", "glow_color", "use_sea",
-                "sea_height", "sea_wavelength", "sea_amplitude", "sea_color", "sea_reflectivity")
+                "sea_height", "sea_wavelength", "sea_amplitude", "sea_color", "sea_reflectivity", "world_samples")
 MAX_LIGHTS = 64
 
 
@@ -441,8 +441,10 @@ def thread_count(scene):
     return r.threads if r.threads_mode == 'FIXED' else 0
 
 
-def render_options(scene):
-    """render()'s keywords from the scene: threads, tiles, kernel, background."""
+def render_options(scene, bake_world=True):
+    """render()'s keywords from the scene: threads, tiles, kernel, background, the World's map
+    (world_light.py; bake_world=False: a World not baked yet gives none)."""
+    from . import world_light
     s = scene.unbound
     return dict(threads=thread_count(scene), tile_size=s.tile_size, simd=core_value(s.simd),
-                background=background(scene))
+                background=background(scene), world=world_light.world_map(scene, bake=bake_world))

@@ -23,7 +23,7 @@ PASSES = (
     RenderPass("Shadow", 1, "X", 'VALUE', "shadow", "use_pass_shadow",
                "Fraction of the scene lights' direct light that is not shadowed"),
     RenderPass("Diffuse", 3, "RGB", 'COLOR', "diffuse", "use_pass_diffuse",
-               "Direct light (scene lights and axle light) times the surface colour"),
+               "Direct light (scene lights, axle light and the World's light) times the surface colour"),
     RenderPass("Ambient", 3, "RGB", 'COLOR', "ambient", "use_pass_ambient",
                "Ambient light times the surface colour and ambient occlusion"),
     RenderPass("Reflection", 3, "RGB", 'COLOR', "reflection", "use_pass_reflection", "Reflected light"),

@@ -336,6 +336,18 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
                                  subtype='COLOR', size=3, default=(0.0, 0.0, 0.0), min=0.0, max=1e6, soft_max=1.0)
     shadows: EnumProperty(name="Shadows", description="Shadows of the scene's lights", items=SHADOW_MODES,
                           default='HARD')
+    # The World as a light (world_light.py)
+    use_world_light: BoolProperty(name="World Light", description="The World is the background and a light: "
+                                  "every world node tree, baked by Cycles into an equirectangular map once per "
+                                  "change", default=True)
+    world_samples: IntProperty(name="World Samples", description="World light samples per hit and sample, each "
+                               "one from the World's map and one from the surface (0: the World is only seen)",
+                               default=1, min=0, max=64)
+    world_resolution: IntProperty(name="World Map Width", description="Width of the equirectangular map a "
+                                  "non-constant World is baked into (height: half of it)", default=512, min=16,
+                                  max=4096, step=2)
+    world_bake_samples: IntProperty(name="World Bake Samples", description="Cycles samples per texel of the "
+                                    "World's map", default=16, min=1, max=4096)
     # Effects
     ao_strength: FloatProperty(name="AO Strength", description="Strength of the occlusion estimated from "
                                "the distance estimate (0: off)", default=0.0, min=0.0, max=1.0, subtype='FACTOR')

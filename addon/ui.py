@@ -415,6 +415,13 @@ class UNBOUND_PT_render_lighting(RenderSubPanel, bpy.types.Panel):
         layout.prop(s, "use_scene_lights")
         layout.prop(s, "shadows")
         layout.prop(s, "ambient")
+        col = layout.column()
+        col.prop(s, "use_world_light")
+        sub = col.column()
+        sub.active = s.use_world_light
+        sub.prop(s, "world_samples")
+        sub.prop(s, "world_resolution")
+        sub.prop(s, "world_bake_samples")
 
 
 class UNBOUND_PT_render_effects(RenderSubPanel, bpy.types.Panel):

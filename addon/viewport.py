@@ -14,6 +14,7 @@ into plain dicts (a Request) and hand it to the Session. The Session's worker th
 native core, which releases the GIL, and publishes each refinement as a Frame; the worker calls
 engine.tag_redraw() and nothing else of bpy."""
 import collections
+import hashlib
 import math
 import threading
 import time
@@ -35,7 +36,7 @@ Frame = collections.namedtuple(
 # What a view renders: plain data read from Blender on the main thread. Equal requests render equal
 # images, so an equal request (a redraw, a selection change) does not restart anything.
 Request = collections.namedtuple(
-    "Request", "camera window objects shading background threads tile_size simd start_divisor time_limit error")
+    "Request", "camera window objects shading background world threads tile_size simd start_divisor time_limit error")
 
 
 def scene_part(depsgraph):
@@ -49,8 +50,22 @@ def scene_part(depsgraph):
     except (export.RenderError, ImportError, ValueError, TypeError) as exc:
         return dict(objects=None, shading=None, error=str(exc))
     # The core checks the values when it renders them, and its messages name the object.
+    options = export.render_options(scene, bake_world=False)
+    options["world"] = options["world"] if options["world"] is None else WorldMap(options["world"])
     return dict(objects=objects, shading=shading, start_divisor=int(s.viewport_start_divisor),
-                time_limit=s.viewport_time_limit, error=None, **export.render_options(scene))
+                time_limit=s.viewport_time_limit, error=None, **options)
+
+
+class WorldMap:
+    """The World's map in a Request: compared by a digest of its texels (a numpy array's repr
+    elides the middle of large arrays, and Session.update compares requests by repr)."""
+
+    def __init__(self, texels):
+        self.texels = texels
+        self.digest = hashlib.sha1(np.ascontiguousarray(texels).tobytes()).hexdigest()
+
+    def __repr__(self):
+        return "WorldMap(%s, %s)" % (self.texels.shape, self.digest)
 
 
 def view_part(context, depsgraph):
@@ -248,6 +263,7 @@ class Session:
         samples = req.shading["samples"]
         image = np.zeros((h, w, 4), np.float32)
         options = dict(threads=req.threads, tile_size=req.tile_size, simd=req.simd, background=req.background,
+                       world=req.world.texels if req.world is not None else None,
                        shading=req.shading, cancel=cancel, poll_interval=POLL_INTERVAL)
 
         def render(passes, **kw):

@@ -444,6 +444,8 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
         shadow[l] = unshadowed[l] > 0.0f ? lit[l] / unshadowed[l] : 1.0f;
 }
 
+#include "world.h"
+
 /* Writes (sample 0) or accumulates (later samples) one pass value; the last sample divides by
  * the sample count. Data passes (depth, normal, position, ...) come from sample 0 alone: the
  * pixel centre, as with one sample. */
@@ -515,10 +517,14 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
     memcpy(ps->primary_out_of_steps, tr->out_of_steps, sizeof ps->primary_out_of_steps);
 }
 
-/* Lanes of `alive` that missed everything see the world (the background colour, unfogged);
- * returns the lanes that hit something. */
-static int add_background(const ub_film *film, int bounce, int alive, const ub_trace_result *tr, ub_paths *ps)
+/* Lanes of `alive` that missed everything see the world (unfogged): the background colour, or
+ * the world map along the ray (times the background's alpha for camera rays: a transparent film
+ * hides the world from the camera, not from reflections, as in Cycles); returns the lanes that
+ * hit something. */
+static int add_background(const ub_scene *sc, int bounce, int alive, const ub_packet_rays *pr,
+                          const ub_trace_result *tr, ub_paths *ps)
 {
+    const ub_film *film = sc->film;
     int hit_lanes = 0;
     for (int l = 0; l < UB_LANES; l++) {
         if (!((alive >> l) & 1))
@@ -527,10 +533,17 @@ static int add_background(const ub_film *film, int bounce, int alive, const ub_t
             hit_lanes |= 1 << l;
             continue;
         }
+        float seen[3] = {film->background[0], film->background[1], film->background[2]};
+        if (sc->world) {
+            double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+            world_radiance(sc->world, d, seen);
+            for (int i = 0; i < 3 && bounce == 0; i++)
+                seen[i] *= film->background[3];
+        }
         for (int i = 0; i < 3; i++) {
-            ps->L[i][l] += ps->W[l] * film->background[i];
+            ps->L[i][l] += ps->W[l] * seen[i];
             if (bounce > 0)
-                ps->R[i][l] += ps->Wr[l] * film->background[i];
+                ps->R[i][l] += ps->Wr[l] * seen[i];
         }
     }
     return hit_lanes;
@@ -716,7 +729,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                     if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                         return;
                 }
-                int hit_lanes = add_background(film, bounce, alive, &tr, &ps);
+                int hit_lanes = add_background(sc, bounce, alive, &pr, &tr, &ps);
                 if (!hit_lanes)
                     break;
                 ub_surface sf;
@@ -725,6 +738,8 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                     return;
                 float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
                 direct_light(sc, dps, bounce, hit_lanes, &pr, &tr, &sf, direct, shadow, cnt);
+                world_light(sc, dps, &sp, film->x0 + film->step * x, film->y0 + film->step * y, film->step, bounce,
+                            hit_lanes, &pr, &tr, &sf, direct, cnt);
                 if (use_ao)
                     ambient_occlusion(sc, dps, hit_lanes, sf.p, sf.n, ao);
                 else

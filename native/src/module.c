@@ -707,16 +707,70 @@ static PyObject *footprint_ratio(const ub_camera *cam, const ub_object *objs, in
     return PyFloat_FromDouble(ub_pixel_footprint(cam, nearest) / radius);
 }
 
+/* world: a C-contiguous float32 (height, width, 3) array, the World's equirectangular map (scene.h,
+ * ub_world), finite and >= 0; its distribution is built here, once per render. On success the view
+ * stays acquired (the kernels read the caller's memory) until the render returns. */
+static int parse_world(PyObject *o, Py_buffer *view, ub_world *world)
+{
+    if (PyObject_GetBuffer(o, view, PyBUF_RECORDS_RO) != 0) {
+        PyErr_Clear();
+        PyErr_SetString(PyExc_TypeError, "world must be a float32 array of shape (height, width, 3) or None");
+        return -1;
+    }
+    const char *fmt = view->format ? view->format : "B";
+    if ((fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@') && fmt[1])
+        fmt++;
+    const char *problem = NULL;
+    if (strcmp(fmt, "f") != 0 || view->itemsize != 4)
+        problem = "world must have dtype float32";
+    else if (view->ndim != 3 || view->shape[2] != 3 || view->shape[0] < 1 || view->shape[1] < 1)
+        problem = "world must have shape (height, width, 3): an equirectangular RGB map, row 0 at the nadir";
+    else if (!PyBuffer_IsContiguous(view, 'C'))
+        problem = "world must be C-contiguous";
+    if (problem) {
+        PyBuffer_Release(view);
+        PyErr_SetString(PyExc_ValueError, problem);
+        return -1;
+    }
+    Py_ssize_t h = view->shape[0], w = view->shape[1];
+    if (h > UB_MAX_WORLD_TEXELS / w) {
+        PyBuffer_Release(view);
+        PyErr_Format(PyExc_ValueError,
+                     "world map of %zdx%zd texels is larger than the %d texels (4096x2048) a render takes: "
+                     "give a smaller map", w, h, UB_MAX_WORLD_TEXELS);
+        return -1;
+    }
+    const float *rgb = view->buf;
+    for (Py_ssize_t k = 0; k < 3 * w * h; k++) {
+        /* Finite is not enough: 1e38 texels sum to infinity in the distribution. */
+        if (!(rgb[k] >= 0.0f && rgb[k] <= 1e12f)) {
+            PyBuffer_Release(view);
+            PyErr_Format(PyExc_ValueError,
+                         "world[%zd, %zd, %zd] is %g: the map's values must be finite, within [0, 1e12]",
+                         k / 3 / w, k / 3 % w, k % 3, (double)rgb[k]);
+            return -1;
+        }
+    }
+    const char *err = ub_world_prepare(world, rgb, (int)w, (int)h);
+    if (err) {
+        PyBuffer_Release(view);
+        PyErr_SetString(PyExc_MemoryError, err);
+        return -1;
+    }
+    return 0;
+}
+
 static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *kwlist[] = {"camera", "objects", "passes", "window", "threads", "tile_size", "simd",
                              "progress", "cancel", "background", "poll_interval", "shading", "stride",
-                             "sample_range", NULL};
+                             "sample_range", "world", NULL};
     PyObject *camera_o, *objects_o, *passes_o, *progress = Py_None, *cancel = Py_None, *shading_o = NULL;
+    PyObject *world_o = Py_None;
     PyObject *kw[8] = {NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
                                      &kw[0], &kw[1], &kw[2], &kw[3], &progress, &cancel, &kw[4], &kw[5],
-                                     &shading_o, &kw[6], &kw[7]))
+                                     &shading_o, &kw[6], &kw[7], &world_o))
         return NULL;
     static const char *const kw_names[8] = {"window", "threads", "tile_size", "simd", "background",
                                             "poll_interval", "stride", "sample_range"};
@@ -729,8 +783,10 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
                                    sizeof(ub_object));
     ub_shading *shading = PyMem_Calloc(1, sizeof(ub_shading));
     PyObject *render_kw = PyDict_New();
-    Py_buffer views[UB_PASS_COUNT];
-    int have[UB_PASS_COUNT] = {0};
+    Py_buffer views[UB_PASS_COUNT], world_view;
+    int have[UB_PASS_COUNT] = {0}, have_world = 0;
+    ub_world world;
+    memset(&world, 0, sizeof world);
     PyObject *result = NULL;
     int count = 0;
     ub_film film;
@@ -756,10 +812,15 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
     }
     if (parse_passes(passes_o, &film, views, have))
         goto done;
+    if (world_o != Py_None) {
+        if (parse_world(world_o, &world_view, &world))
+            goto done;
+        have_world = 1;
+    }
 
     {
         volatile int cancel_flag = 0;
-        ub_scene scene = {&cam, objs, count, &film, shading, NULL, &cancel_flag};
+        ub_scene scene = {&cam, objs, count, &film, shading, NULL, &cancel_flag, have_world ? &world : NULL};
         ub_render_stats stats;
         poll_state ps = {progress, cancel, NULL, 0, NULL, NULL, NULL};
         if (progress != Py_None || cancel != Py_None) {
@@ -793,6 +854,10 @@ done:
     for (int i = 0; i < UB_PASS_COUNT; i++)
         if (have[i])
             PyBuffer_Release(&views[i]);
+    if (have_world) {
+        ub_world_release(&world);
+        PyBuffer_Release(&world_view);
+    }
     Py_XDECREF(render_kw);
     PyMem_Free(objs);
     PyMem_Free(shading);
@@ -1282,14 +1347,19 @@ static PyMethodDef methods[] = {
      "faces are removed. Same bytes for any thread count. See unbound_core.mesh"},
     {"render", (PyCFunction)(void (*)(void))py_render, METH_VARARGS | METH_KEYWORDS,
      "render(camera, objects, passes, *, window=None, threads=0, tile_size=32, simd='auto', progress=None, "
-     "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None, stride=1, sample_range=None) "
+     "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None, stride=1, sample_range=None, "
+     "world=None) "
      "-> stats dict. stride s renders the image pixels (x + s i, y + s j) of window (x, y, columns, rows) "
      "only; sample_range (first, count) renders those samples into buffers holding the earlier ones' sum. "
      "After a cancel (stats['cancelled']) the passes are partial: with several samples, undivided sums of "
      "the samples done. stats['footprint_ratio']: a pixel's footprint at the nearest hit of the depth pass "
      "over the largest world bounding radius (None without depth or hits); below PRECISION_LIMIT float32 no "
      "longer resolves the surface. stats['out_of_steps']: camera rays of the window (each sample) that ran out "
-     "of max_steps before they hit or left a fractal (the 'max_steps' pass marks them). Keywords and object, "
+     "of max_steps before they hit or left a fractal (the 'max_steps' pass marks them). world: the World's "
+     "equirectangular map, float32 (height, width, 3), row 0 at the nadir, Cycles' Environment Texture mapping "
+     "(u = atan2(-y, x) / 2 pi + 0.5, v = atan2(z, hypot(x, y)) / pi + 0.5): missed rays see it (camera rays "
+     "times the background's alpha, whose colour it replaces) and it lights every hit, importance-sampled "
+     "(shading world_samples), with shadows. Keywords and object, "
      "shading and light keys: see PARAMETERS"},
     {"normals", (PyCFunction)(void (*)(void))py_normals, METH_VARARGS | METH_KEYWORDS,
      "normals(object, points, t, normals, *, simd='auto'): object-space unit normals at object-space points "

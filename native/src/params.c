@@ -209,6 +209,9 @@ static const ub_param shading_rows[] = {
     REAL(SH, sea_amplitude, 0.0, 1e9, D(0.01), "sea: height of the waves"),
     VECTOR(SH, sea_color, 3, 0.0, 1e6, D(0.1, 0.25, 0.4), 0, "sea: colour"),
     REAL(SH, sea_reflectivity, 0.0, 1.0, D(0.5), "sea: fraction of light mirrored"),
+    INTEGER(SH, world_samples, 0, UB_MAX_WORLD_SAMPLES, D(1.0),
+            "world light samples per hit and anti-aliasing sample, each one from the world map and one "
+            "from the surface (multiple importance sampling); 0: the world map is only seen, it lights nothing"),
     {"lights", UB_PARAM_LIST, FIELD_OF(SH, lights), 1, 1, 0, 0, NULL, NULL, 0,
      "lights as dicts of the light section", 0, UB_MAX_LIGHTS, 0, FIELD_OF(SH, lights_count),
      sizeof(ub_light_input), &ub_light_section},
@@ -235,6 +238,10 @@ static const ub_param render_rows[] = {
      "callable(fraction) -> True to cancel, called on the calling thread", 0, 0, 0, 0, 0, NULL},
     {"cancel", UB_PARAM_CUSTOM, 0, 1, 1, 0, 0, NULL, NULL, UB_PARAM_NONE_OK,
      "an object with is_set() (a threading.Event): set, the render stops", 0, 0, 0, 0, 0, NULL},
+    {"world", UB_PARAM_CUSTOM, 0, 1, 1, 0, 0, NULL, NULL, UB_PARAM_NONE_OK,
+     "the World's equirectangular map, float32 (height, width, 3), row 0 at the nadir: the background of "
+     "missed rays and a light at every hit (shading world_samples); None: the background colour", 0, 0, 0, 0, 0,
+     NULL},
 };
 #undef R
 const ub_param_section ub_render_section = {"render", ROWS(render_rows), sizeof(ub_render_input)};

@@ -133,6 +133,7 @@ typedef struct {
     double sea_height, sea_wavelength, sea_amplitude, sea_color[3], sea_reflectivity;
     int lights_count;
     ub_light_input lights[UB_MAX_LIGHTS];
+    int world_samples;
 } ub_shading_input;
 
 /* render()'s keywords beside camera, objects and passes. */

@@ -591,4 +591,5 @@ void ub_shading_from_input(ub_shading *sh, const ub_shading_input *in)
     to_float3(sh->sea_color, in->sea_color);
     sh->sea_reflectivity = (float)in->sea_reflectivity;
     sh->light_count = in->lights_count;
+    sh->world_samples = in->world_samples;
 }

@@ -22,6 +22,7 @@
 #define UB_MAX_SAMPLES 4096
 #define UB_MAX_REFLECTION_DEPTH 16
 #define UB_MAX_AO_SAMPLES 32
+#define UB_MAX_WORLD_SAMPLES 64
 #define UB_MAX_RAMP 256
 #define UB_MAX_PATH 256        /* points of a Julia stack's c-path */
 #define UB_MAX_IFS_MAPS 32
@@ -249,6 +250,8 @@ typedef struct {
     float sea_reflectivity;
     int light_count;
     ub_light lights[UB_MAX_LIGHTS];
+    int world_samples;         /* world light samples per hit and anti-aliasing sample (each: one
+                                  from the map, one from the surface, combined by MIS) */
 } ub_shading;
 
 typedef enum {
@@ -315,6 +318,27 @@ typedef struct {
     ub_hit *hits;
 } ub_hit_buffer;
 
+/* The World as a light and a background (world.c, world.h): an equirectangular map in the
+ * convention of Cycles' Environment Texture, texel (i, j) at u = (i + 0.5) / w, v = (j + 0.5) / h,
+ * row 0 the nadir's (Blender's image order); direction (x, y, z) <-> u = atan2(-y, x) / (2 pi) + 0.5,
+ * v = atan2(z, hypot(x, y)) / pi + 0.5. Importance sampling by luminance * sin(polar angle), a
+ * 2-D piecewise-constant distribution (pbrt-v4's PiecewiseConstant2D): the marginal CDF over the
+ * rows, the conditional CDF of each row. */
+typedef struct {
+    int w, h;
+    const float *rgb;      /* h * w * 3 floats, the caller's */
+    float *row_cdf;        /* h + 1: marginal CDF over the rows, 0 .. 1 */
+    float *col_cdf;        /* h * (w + 1): each row's conditional CDF, 0 .. 1 */
+    float *row_sin;        /* h: sin of each row's polar angle (its centre) */
+    double sum;            /* sum of luminance * row_sin over the texels; 0: the map sends no light */
+} ub_world;
+
+#define UB_MAX_WORLD_TEXELS (4096 * 2048)
+
+/* world.c: the distribution of a map (rgb finite, >= 0); NULL or an error message. */
+const char *ub_world_prepare(ub_world *world, const float *rgb, int w, int h);
+void ub_world_release(ub_world *world);
+
 typedef struct {
     const ub_camera *camera;
     const ub_object *objects;
@@ -327,6 +351,7 @@ typedef struct {
      * waves and normals, a light, 64 splits of the IFS estimate), so a cancel is seen within a
      * few ms of one thread's work at any setting the parameter table allows. */
     volatile int *cancel;
+    const ub_world *world;  /* NULL: no world map (missed rays see the film's background colour) */
 } ub_scene;
 
 /* Sub-pixel offset of anti-aliasing sample s: Halton (2, 3) shifted so sample 0 is the centre. */

@@ -28,6 +28,9 @@ ADDON_ONLY = {
         "viewport_start_divisor": "the viewport's stride",
         "viewport_samples": "samples, in the viewport",
         "viewport_time_limit": "the viewport's scheduler",
+        "use_world_light": "world (world_light.world_map: None when off)",
+        "world_resolution": "world (world_light.bake_world: the baked map's width)",
+        "world_bake_samples": "world (world_light.bake_world: Cycles samples per texel)",
     },
 }
 

@@ -1,0 +1,260 @@
+/* The World as a background and a light (scene.h: ub_world; its distribution: world.c). Included
+ * by kernel.h after shading.h.
+ *
+ * Missed rays see the map, bilinearly filtered (Cycles' Linear interpolation). At every hit the
+ * world's light is estimated with world_samples pairs of directions, one drawn from the map's
+ * distribution, one from the surface's (cosine-weighted), combined by the balance heuristic of
+ * multiple importance sampling: each pair adds L cos / pi / (p_map + p_surface) for both of its
+ * directions (Veach 1997, ch. 9). The light seen there is the map's texel (piecewise constant,
+ * as the distribution is), with a shadow ray marched toward it. */
+
+/* lowbias32 (C. Wellons): a 32-bit integer hash with good avalanche. */
+static inline uint32_t hash_u32(uint32_t x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+/* Counter-based random number in [0, 1) of full-image pixel (px, py), anti-aliasing sample
+ * `sample` and dimension `dim`: the same bits whatever thread, tile, window, stride or kernel
+ * computes the pixel. */
+static inline double random_uniform(int px, int py, int sample, int dim)
+{
+    uint32_t h = hash_u32((uint32_t)dim + 0x9e3779b9u);
+    h = hash_u32((uint32_t)sample ^ h);
+    h = hash_u32((uint32_t)py ^ h);
+    h = hash_u32((uint32_t)px ^ h);
+    return (double)(h >> 8) * (1.0 / 16777216.0);
+}
+
+/* Unit direction of map point (u, v) and the sine of its polar angle. */
+static void world_direction(double u, double v, double d[3], double *sin_polar)
+{
+    double phi = 2.0 * M_PI * (u - 0.5), lat = M_PI * (v - 0.5);
+    double cl = ub_cos(lat);
+    d[0] = ub_cos(phi) * cl;
+    d[1] = -ub_sin(phi) * cl;
+    d[2] = ub_sin(lat);
+    *sin_polar = cl;
+}
+
+static inline double clamp_unit(double x)
+{
+    return x < -1.0 ? -1.0 : (x > 1.0 ? 1.0 : x);
+}
+
+/* Map point (u, v) of direction d (any length > 0): u = atan2(-y, x) / 2 pi + 0.5, v = 1 -
+ * polar / pi, by the core's own acos (the same bits everywhere). */
+static void world_uv(const double d[3], double *u, double *v)
+{
+    double r = ub_hypot(d[0], d[1]), len = ub_hypot(r, d[2]);
+    double phi = r > 0.0 ? ub_acos(clamp_unit(d[0] / r)) : 0.0;
+    if (d[1] > 0.0)
+        phi = -phi;
+    *u = phi * (0.5 / M_PI) + 0.5;
+    *v = len > 0.0 ? 1.0 - ub_acos(clamp_unit(d[2] / len)) / M_PI : 0.5;
+}
+
+static inline int clamp_index(int i, int n)
+{
+    return i < 0 ? 0 : (i >= n ? n - 1 : i);
+}
+
+static inline int wrap_index(int i, int n)
+{
+    i %= n;
+    return i < 0 ? i + n : i;
+}
+
+/* Texel (i, j) that map point (u, v) lies in. */
+static inline void world_texel(const ub_world *wd, double u, double v, int *i, int *j)
+{
+    *i = wrap_index((int)floor(u * wd->w), wd->w);
+    *j = clamp_index((int)floor(v * wd->h), wd->h);
+}
+
+/* The map seen along direction d, bilinear: wraps around in u, clamps at the poles. */
+static void world_radiance(const ub_world *wd, const double d[3], float out[3])
+{
+    double u, v;
+    world_uv(d, &u, &v);
+    double x = u * wd->w - 0.5, y = v * wd->h - 0.5;
+    double x0 = floor(x), y0 = floor(y);
+    float fx = (float)(x - x0), fy = (float)(y - y0);
+    int i0 = wrap_index((int)x0, wd->w), i1 = wrap_index((int)x0 + 1, wd->w);
+    int j0 = clamp_index((int)y0, wd->h), j1 = clamp_index((int)y0 + 1, wd->h);
+    const float *a = wd->rgb + ((size_t)j0 * wd->w + i0) * 3, *b = wd->rgb + ((size_t)j0 * wd->w + i1) * 3;
+    const float *c = wd->rgb + ((size_t)j1 * wd->w + i0) * 3, *e = wd->rgb + ((size_t)j1 * wd->w + i1) * 3;
+    for (int k = 0; k < 3; k++) {
+        float bottom = a[k] + fx * (b[k] - a[k]), top = c[k] + fx * (e[k] - c[k]);
+        out[k] = bottom + fy * (top - bottom);
+    }
+}
+
+/* Density, per steradian, of the map's distribution at texel (i, j) along a direction whose
+ * polar angle has sine sin_polar: the texel's probability times w h over the unit square, over
+ * the Jacobian 2 pi^2 sin(polar) of the map. */
+static double world_pdf(const ub_world *wd, int i, int j, double sin_polar)
+{
+    if (!(wd->sum > 0.0) || !(sin_polar > 0.0))
+        return 0.0;
+    const float *t = wd->rgb + ((size_t)j * wd->w + i) * 3;
+    double f = (0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2]) * wd->row_sin[j];
+    return f * wd->w * wd->h / wd->sum / (2.0 * M_PI * M_PI * sin_polar);
+}
+
+/* The last index k < n with cdf[k] <= r: its interval [cdf[k], cdf[k + 1]) holds r and has a
+ * positive width (r < 1 = cdf[n]). */
+static int find_interval(const float *cdf, int n, double r)
+{
+    int lo = 0, hi = n - 1;
+    while (lo < hi) {
+        int mid = (lo + hi + 1) / 2;
+        if ((double)cdf[mid] <= r)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    return lo;
+}
+
+/* A direction drawn from the map's distribution by (r1, r2) in [0, 1)^2; its texel and density.
+ * Returns 0 if it has none (a black map, a pole). */
+static int world_sample(const ub_world *wd, double r1, double r2, double d[3], int *ti, int *tj, double *pdf)
+{
+    int j = find_interval(wd->row_cdf, wd->h, r1);
+    const float *cc = wd->col_cdf + (size_t)j * (wd->w + 1);
+    int i = find_interval(cc, wd->w, r2);
+    double rw = (double)wd->row_cdf[j + 1] - wd->row_cdf[j], cw = (double)cc[i + 1] - cc[i];
+    double dv = rw > 0.0 ? (r1 - wd->row_cdf[j]) / rw : 0.5, du = cw > 0.0 ? (r2 - cc[i]) / cw : 0.5;
+    double sin_polar;
+    world_direction((i + du) / wd->w, (j + dv) / wd->h, d, &sin_polar);
+    *ti = i;
+    *tj = j;
+    *pdf = world_pdf(wd, i, j, sin_polar);
+    return *pdf > 0.0;
+}
+
+/* The Lambertian surface's response to light arriving along unit wi: cos / pi (times the albedo,
+ * which add_surface_light applies). The one place a richer BSDF would answer instead. */
+static inline double diffuse_response(const float n[3], const double wi[3])
+{
+    double c = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2];
+    return c > 0.0 ? c * M_1_PI : 0.0;
+}
+
+/* Its sampling: a cosine-weighted direction about n by (r1, r2), density cos / pi (Malley's
+ * method, in the frame of Duff et al. 2017). */
+static double diffuse_sample(const float n[3], double r1, double r2, double wi[3])
+{
+    double sign = n[2] >= 0.0f ? 1.0 : -1.0;
+    double a = -1.0 / (sign + n[2]), b = n[0] * n[1] * a;
+    double t[3] = {1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]};
+    double s[3] = {b, sign + n[1] * n[1] * a, -(double)n[1]};
+    double r = sqrt(r1), phi = 2.0 * M_PI * r2;
+    double x = r * ub_cos(phi), y = r * ub_sin(phi), z = sqrt(1.0 - r1 > 0.0 ? 1.0 - r1 : 0.0);
+    for (int k = 0; k < 3; k++)
+        wi[k] = x * t[k] + y * s[k] + z * n[k];
+    return z * M_1_PI;
+}
+
+/* One direction of a world-light pair at lane l: its radiance over (p_map + p_surface) times the
+ * surface's response; 0 if nothing can arrive. technique 0 draws from the map, 1 from the surface. */
+static int world_direction_weight(const ub_world *wd, const float n[3], int technique, double r1, double r2,
+                                  double d[3], double weight[3])
+{
+    double p_map, p_surface;
+    int i, j;
+    if (technique == 0) {
+        if (!world_sample(wd, r1, r2, d, &i, &j, &p_map))
+            return 0;
+        double c = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+        p_surface = c > 0.0 ? c * M_1_PI : 0.0;
+    } else {
+        p_surface = diffuse_sample(n, r1, r2, d);
+        double u, v;
+        world_uv(d, &u, &v);
+        world_texel(wd, u, v, &i, &j);
+        p_map = world_pdf(wd, i, j, ub_hypot(d[0], d[1]));
+    }
+    double response = diffuse_response(n, d);
+    if (!(response > 0.0) || !(p_map + p_surface > 0.0))
+        return 0;
+    const float *L = wd->rgb + ((size_t)j * wd->w + i) * 3;
+    double s = response / (p_map + p_surface);
+    for (int k = 0; k < 3; k++)
+        weight[k] = L[k] * s;
+    return weight[0] > 0.0 || weight[1] > 0.0 || weight[2] > 0.0;
+}
+
+/* The world's light at the hits `lanes` of one bounce, added to `direct` (irradiance / pi, as
+ * direct_light's): world_samples pairs per hit, shadows marched as for the lights (any hit; the
+ * sea blocks what comes from below it). Lane l is full-image pixel (px0 + step l, py). */
+static void world_light(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int px0, int py,
+                        int step, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
+                        const ub_surface *sf, float direct[3][UB_LANES], ub_counters *cnt)
+{
+    const ub_shading *sh = sc->shading;
+    const ub_world *wd = sc->world;
+    const int N = sh->world_samples;
+    if (!wd || N <= 0 || !(wd->sum > 0.0))
+        return;
+    const float scale = 1.0f / (float)N;
+    for (int s = 0; s < N && !cancelled(sc); s++) {
+        for (int technique = 0; technique < 2; technique++) {
+            ub_packet_rays sr;
+            float weight[3][UB_LANES];
+            int cand = 0;
+            for (int l = 0; l < UB_LANES; l++) {
+                sr.t_base[l] = 0.0f;
+                sr.t_min[l] = sr.t_max[l] = 0.0;
+                for (int i = 0; i < 3; i++)
+                    sr.origin[i][l] = sr.dir[i][l] = 0.0;
+                sr.dir[2][l] = 1.0;
+                if (!((lanes >> l) & 1))
+                    continue;
+                int dim = ((bounce * N + s) * 2 + technique) * 2;
+                double r1 = random_uniform(px0 + step * l, py, sp->index, dim);
+                double r2 = random_uniform(px0 + step * l, py, sp->index, dim + 1);
+                float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
+                double d[3], w[3];
+                if (!world_direction_weight(wd, n, technique, r1, r2, d, w))
+                    continue;
+                /* The sea is opaque: the sky below it does not reach a point above it. */
+                if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)
+                    continue;
+                cand |= 1 << l;
+                for (int i = 0; i < 3; i++) {
+                    weight[i][l] = (float)w[i];
+                    sr.origin[i][l] = sf->p[i][l] + sf->bias[l] * sf->n[i][l];
+                    sr.dir[i][l] = d[i];
+                }
+                sr.t_min[l] = sf->bias[l];
+                sr.t_max[l] = 1e30;
+                sr.t_base[l] = pr->t_base[l] + tr->t[l];
+            }
+            if (!cand)
+                continue;
+            int visible = cand;
+            if (sh->shadows != UB_SHADOWS_NONE) {
+                ub_trace_result st;
+                trace(sc, dps, &sr, cand, UB_TRACE_ANY_HIT, NULL, &st, cnt);
+                for (int l = 0; l < UB_LANES; l++) {
+                    if (!((cand >> l) & 1))
+                        continue;
+                    cnt->steps += (uint64_t)st.steps[l];
+                    if (st.object[l] != UB_HIT_NONE)
+                        visible &= ~(1 << l);
+                }
+            }
+            for (int l = 0; l < UB_LANES; l++)
+                if ((visible >> l) & 1)
+                    for (int i = 0; i < 3; i++)
+                        direct[i][l] += weight[i][l] * scale;
+        }
+    }
+}
