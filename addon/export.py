@@ -305,7 +305,7 @@ def ramp_table(texture):
     interpolation, colour mode and keyframed stops included); None without a ramp."""
     if texture is None or not texture.use_color_ramp:
         return None
-    return sampled_ramp(texture.color_ramp)
+    return [c[:3] for c in sampled_ramp(texture.color_ramp)]
 
 
 def sampled_ramp(ramp):
