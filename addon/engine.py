@@ -331,6 +331,9 @@ def _render_frame(engine, depsgraph, times):
     unrendered = composite.unrendered_warning(depsgraph)
     if unrendered:
         engine.report({'WARNING'}, "Unbound: " + unrendered)
+    unevaluated = export.material_warnings(depsgraph)
+    if unevaluated:
+        engine.report({'WARNING'}, "Unbound: " + unevaluated)
     if samples == 1:
         started = time.perf_counter()
         stats, cancelled = _render_bands(engine, depsgraph, core, (width, height, camera), objects, shading, window,

@@ -6,7 +6,7 @@ through as it is (enum identifiers lower-cased); the table of the core (unbound_
 gives both their limits and defaults, and tests/blender/test_parameter_table.py holds the two
 together. What is built here is only what Blender describes in its own terms: the camera, the
 slice frame from the slice offset and rotation, a Julia stack's c-path, IFS maps from location,
-rotation and scale, a colour ramp from a texture, the lights, the world's colour.
+rotation and scale, a colour ramp from a texture, the lights, the world's colour, a material's Principled BSDF.
 
 Nothing is validated here: the core checks every value once, and names the object in its
 messages (each object dict carries its `name`)."""
@@ -231,6 +231,8 @@ def object_parameters(ob, depsgraph=None, with_ramp=True):
     out["slice_basis"], out["slice_origin"] = slice_frame(props.slice_offset, props.slice_rotation)
     if with_ramp and props.color_mode != 'BASE':
         out["color_ramp"] = ramp_table(props.color_ramp_texture)
+    if props.material is not None:
+        out.update(material_description(props.material)[0])
     try:
         if props.kind == 'JULIA_STACK':
             out["path"] = c_path(props, depsgraph)
@@ -304,8 +306,146 @@ def ramp_table(texture):
     interpolation, colour mode and keyframed stops included); None without a ramp."""
     if texture is None or not texture.use_color_ramp:
         return None
-    ramp = texture.color_ramp
-    return [tuple(ramp.evaluate(i / (RAMP_SIZE - 1)))[:3] for i in range(RAMP_SIZE)]
+    return [c[:3] for c in sampled_ramp(texture.color_ramp)]
+
+
+def sampled_ramp(ramp):
+    """A ColorRamp's RGBA at RAMP_SIZE points uniformly spaced over [0, 1], as Blender evaluates it."""
+    return [tuple(ramp.evaluate(i / (RAMP_SIZE - 1))) for i in range(RAMP_SIZE)]
+
+
+# ---------------------------------------------------------------------------- materials
+
+# Attribute node names a material reads, and the core's attribute each one is (docs: README,
+# Materials). Vectors are read as their Fac, the mean of the components, as Blender's Attribute node.
+MATERIAL_ATTRIBUTES = {"unbound_orbit_trap": "orbit_trap", "unbound_iterations": "iterations",
+                       "unbound_distance": "distance", "unbound_position": "position",
+                       "unbound_normal": "normal"}
+# Principled BSDF inputs an attribute may drive (through a Color Ramp or a Map Range): the core's
+# key and its channels.
+DRIVEN_INPUTS = {"Base Color": ("base_color", 3), "Metallic": ("metallic", 1), "Roughness": ("roughness", 1)}
+# Principled inputs read as constants: (socket, core key).
+CONSTANT_INPUTS = (("IOR", "material_ior"), ("Specular IOR Level", "material_specular_ior_level"),
+                   ("Alpha", "material_alpha"))
+# Principled layers Unbound does not render: the socket whose non-zero value turns each on.
+UNRENDERED_LAYERS = ("Subsurface Weight", "Transmission Weight", "Coat Weight", "Sheen Weight")
+# Scene-linear RGB -> luminance (Rec. 709, Blender's default scene-linear space): how a colour
+# becomes a number when a Color Ramp's Color drives Metallic or Roughness.
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+
+
+def material_output_node(material):
+    """The node feeding the active Material Output's Surface (for Cycles or all engines), or None."""
+    outputs = [n for n in material.node_tree.nodes if n.type == 'OUTPUT_MATERIAL' and n.target in {'ALL', 'CYCLES'}]
+    out = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    link = out and next(iter(out.inputs["Surface"].links), None)
+    return link.from_node if link else None
+
+
+def material_description(material):
+    """The core's material_* keys of a Blender material, and the warnings about what they leave out.
+
+    Read: a Principled BSDF feeding the Material Output: Base Color, Metallic, Roughness, IOR,
+    Specular IOR Level, Emission Color x Emission Strength, Alpha, each as its value, or for Base
+    Color, Metallic and Roughness an Attribute node named in MATERIAL_ATTRIBUTES through a Color
+    Ramp or a Map Range (or directly). Anything else linked to an input is named in a warning and
+    the input keeps its own value; a material without nodes, or whose output is not a Principled
+    BSDF, renders as a Principled BSDF of its viewport display colour, metallic and roughness."""
+    name = material.name
+    out = dict(use_material=True)
+    node = material_output_node(material) if material.use_nodes and material.node_tree else None
+    if node is None or node.type != 'BSDF_PRINCIPLED':
+        out.update(material_base_color=tuple(material.diffuse_color)[:3], material_metallic=material.metallic,
+                   material_roughness=material.roughness)
+        if node is None:
+            return out, []
+        return out, ["material '%s': the node '%s' (%s) feeding the Material Output is not a Principled BSDF; "
+                     "rendered as a Principled BSDF of the material's viewport display colour"
+                     % (name, node.name, node.bl_label)]
+    warnings = []
+    for socket, (key, channels) in DRIVEN_INPUTS.items():
+        out.update(driven_input(material, node.inputs[socket], key, channels, warnings))
+    for socket, key in CONSTANT_INPUTS:
+        out[key] = constant_input(material, node.inputs[socket], warnings)
+    color = constant_input(material, node.inputs["Emission Color"], warnings)
+    strength = constant_input(material, node.inputs["Emission Strength"], warnings)
+    out["material_emission"] = tuple(c * strength for c in color[:3])
+    off = [s for s in UNRENDERED_LAYERS if s in node.inputs and (node.inputs[s].is_linked
+                                                                  or node.inputs[s].default_value != 0.0)]
+    if off:
+        warnings.append("material '%s': Unbound does not render the Principled BSDF's %s; left out"
+                        % (name, ", ".join(off)))
+    return out, warnings
+
+
+def constant_input(material, socket, warnings):
+    """A socket's own value; if something is linked to it, a warning naming that node."""
+    if socket.is_linked:
+        node = socket.links[0].from_node
+        warnings.append("material '%s': %s is linked from the node '%s' (%s), which Unbound cannot evaluate; "
+                        "using the input's own value" % (material.name, socket.name, node.name, node.bl_label))
+    value = socket.default_value
+    return tuple(value) if hasattr(value, "__len__") else value
+
+
+def driven_input(material, socket, key, channels, warnings):
+    """The core keys of a Principled input: its value, or its attribute, table, scale and offset when
+    an Attribute node drives it (through a Color Ramp or a Map Range, or directly)."""
+    prefix = "material_" + key
+    value = socket.default_value
+    out = {prefix: tuple(value)[:3] if channels == 3 else value}
+    if not socket.is_linked:
+        return out
+    link = socket.links[0]
+    node, table, scale, offset = link.from_node, [(0.0,) * 4, (1.0,) * 4], 1.0, 0.0
+    source = node
+    if node.type == 'VALTORGB':  # Color Ramp
+        table = sampled_ramp(node.color_ramp)
+        if link.from_socket.name == "Alpha":
+            table = [(c[3],) * 4 for c in table]
+        source = linked_node(node.inputs["Fac"])
+    elif node.type == 'MAP_RANGE' and node.data_type == 'FLOAT' and node.interpolation_type == 'LINEAR':
+        low, high, to_low, to_high = (node.inputs[i].default_value for i in range(1, 5))
+        if high != low and not any(node.inputs[i].is_linked for i in range(1, 5)):
+            scale, offset = 1.0 / (high - low), -low / (high - low)
+            table = [(to_low,) * 4, (to_high,) * 4]
+            source = linked_node(node.inputs[0])
+        else:
+            source = None
+    attribute = MATERIAL_ATTRIBUTES.get(source.attribute_name) if source is not None and \
+        source.type == 'ATTRIBUTE' else None
+    if attribute is None:
+        bad = source if source is not None and source is not node and source.type != 'ATTRIBUTE' else node
+        warnings.append("material '%s': %s is driven by the node '%s' (%s), which Unbound cannot evaluate "
+                        "(it reads an Attribute node named %s, through a Color Ramp or a linear, float Map Range); "
+                        "using the input's own value"
+                        % (material.name, socket.name, bad.name, bad.bl_label, ", ".join(sorted(MATERIAL_ATTRIBUTES))))
+        return out
+    if channels == 3:
+        rows = [tuple(c[:3]) for c in table]
+    else:
+        from_color = node.type == 'VALTORGB' and link.from_socket.name == "Color"
+        rows = [(sum(w * v for w, v in zip(LUMINANCE, c)),) if from_color else (c[0],) for c in table]
+    out.update({prefix + "_source": attribute, prefix + "_ramp": rows, prefix + "_scale": scale,
+                prefix + "_offset": offset})
+    return out
+
+
+def linked_node(socket):
+    """The node linked to an input socket, or None."""
+    return socket.links[0].from_node if socket.is_linked else None
+
+
+def material_warnings(depsgraph):
+    """One line naming what the fractals' materials use that Unbound cannot evaluate, or None."""
+    seen, lines = set(), []
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        material = utils.is_fractal(ob) and ob.unbound.material
+        if material and material.name_full not in seen:
+            seen.add(material.name_full)
+            lines += material_description(material)[1]
+    return "; ".join(lines) if lines else None
 
 
 def scene_instances(depsgraph, accept, describe):

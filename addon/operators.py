@@ -23,10 +23,10 @@ BUNDLED_PRESETS = os.path.join(os.path.dirname(__file__), "presets", "fractal")
 BUNDLED_LOOK_PRESETS = os.path.join(os.path.dirname(__file__), "presets", "look")
 
 # What a preset holds: every setting of the PropertyGroup, read from its annotations so that a new
-# one is never left out, except a datablock (the ramp texture, the path curve), the map shown for
-# editing, and machine-specific render or viewport settings.
-FRACTAL_PRESET_EXCLUDE = {"is_fractal", "color_ramp_texture", "path_curve", "ifs_active_map", "kifs_active_plane",
-                          "hybrid_active_step"}
+# one is never left out, except a datablock (the ramp texture, the path curve, the material), the map
+# shown for editing, and machine-specific render or viewport settings.
+FRACTAL_PRESET_EXCLUDE = {"is_fractal", "color_ramp_texture", "path_curve", "material", "ifs_active_map",
+                          "kifs_active_plane", "hybrid_active_step"}
 LOOK_PRESET_EXCLUDE = {"tile_size", "simd"}
 
 

@@ -319,6 +319,10 @@ class UnboundObjectSettings(bpy.types.PropertyGroup):
                               default=1.0, min=-1e6, max=1e6, soft_min=-10.0, soft_max=10.0)
     ramp_offset: FloatProperty(name="Ramp Offset", description="Ramp position = value * scale + offset",
                                default=0.0, min=-1e6, max=1e6, soft_min=-1.0, soft_max=1.0)
+    material: PointerProperty(name="Material", description="Material of the fractal: a Principled BSDF (Base "
+                              "Color, Metallic, Roughness, IOR, Emission, Alpha; Attribute nodes named "
+                              "unbound_orbit_trap, unbound_iterations, ... through a Color Ramp or Map Range). "
+                              "Replaces Color and Coloring", type=bpy.types.Material)
 
 
 class UnboundSceneSettings(bpy.types.PropertyGroup):

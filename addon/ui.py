@@ -274,7 +274,9 @@ class UNBOUND_PT_fractal_shading(FractalPanel, bpy.types.Panel):
         sub.prop(props, "normal_alpha")
         sub.prop(props, "normal_delta")
         layout.prop(props, "reflectivity")
+        layout.template_ID(props, "material", new="material.new")
         col = layout.column()
+        col.active = props.material is None  # a material's Base Color replaces the colouring
         col.prop(props, "color_mode")
         if props.color_mode != 'BASE':
             tex = props.color_ramp_texture

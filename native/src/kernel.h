@@ -37,6 +37,7 @@ static inline int cancelled(const ub_scene *sc)
 
 #include "estimators.h"
 #include "march.h"
+#include "bsdf.h"
 #include "shading.h"
 
 /* One anti-aliasing sample: its index and its sub-pixel offset (the same for every pixel). */
@@ -193,7 +194,32 @@ typedef struct {
     float trap[UB_LANES];
     float reflectivity[UB_LANES];
     float bias[UB_LANES];   /* offset of secondary ray origins off the surface */
+    /* Lanes on an object with a material: its BSDF, emission and alpha there. */
+    int bsdf_lanes;
+    ub_bsdf bsdf[UB_LANES];
+    float emission[3][UB_LANES];
+    float alpha[UB_LANES];
 } ub_surface;
+
+/* The BSDF, emission and alpha of the lanes on objects with a material, from the attributes at
+ * their hits (after the normals: a material can read them). The albedo (ambient light, the
+ * Denoising Albedo pass) is the base colour. */
+static void surface_materials(const ub_scene *sc, const ub_trace_result *tr, ub_surface *sf)
+{
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((sf->bsdf_lanes >> l) & 1))
+            continue;
+        const ub_object *o = &sc->objects[tr->object[l]];
+        ub_hit_attributes h = {sf->trap[l], tr->iters[l], tr->dist[l], {sf->p[0][l], sf->p[1][l], sf->p[2][l]},
+                               {sf->n[0][l], sf->n[1][l], sf->n[2][l]}};
+        bsdf_at(o, &h, &sf->bsdf[l]);
+        for (int i = 0; i < 3; i++) {
+            sf->albedo[i][l] = (float)sf->bsdf[l].base[i];
+            sf->emission[i][l] = o->material.emission[i];
+        }
+        sf->alpha[l] = o->material.alpha;
+    }
+}
 
 /* Normals, colour and trap of the hits in `hit_lanes` of one bounce. */
 static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int bounce, int fx,
@@ -204,6 +230,7 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
     const ub_hit_buffer *hb = sc->hits;
     double nw[3][UB_LANES];
     int have_normal = 0, sea_lanes = 0;
+    sf->bsdf_lanes = 0;
     for (int l = 0; l < UB_LANES; l++) {
         double t = tr->t[l];
         for (int i = 0; i < 3; i++) {
@@ -213,6 +240,7 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         sf->trap[l] = 0.0f;
         sf->reflectivity[l] = 0.0f;
         sf->bias[l] = 0.0f;
+        sf->alpha[l] = 1.0f;
         if (((hit_lanes >> l) & 1) && tr->object[l] == UB_HIT_SEA)
             sea_lanes |= 1 << l;
     }
@@ -279,7 +307,11 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
                 have_normal |= 1 << l;
             }
         }
-        int need_trap = want_trap || o->color_mode == UB_COLOR_ORBIT_TRAP;
+        const ub_material *mat = &o->material;
+        int need_trap = want_trap || o->color_mode == UB_COLOR_ORBIT_TRAP
+                     || (mat->enabled && (mat->base_color_map.source == UB_ATTRIBUTE_ORBIT_TRAP
+                                          || mat->metallic_map.source == UB_ATTRIBUTE_ORBIT_TRAP
+                                          || mat->roughness_map.source == UB_ATTRIBUTE_ORBIT_TRAP));
         float tb[UB_LANES] = {0};
         if (need_trap) {
             vf dist, it;
@@ -295,6 +327,8 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
             albedo(o, tb[l], tr->iters[l], c);
             for (int i = 0; i < 3; i++)
                 sf->albedo[i][l] = c[i];
+            if (mat->enabled)
+                sf->bsdf_lanes |= 1 << l;
         }
     }
     if (sea_lanes) {
@@ -329,6 +363,8 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         for (int i = 0; i < 3; i++)
             sf->n[i][l] = (float)(nw[i][l] * inv);
     }
+    if (sf->bsdf_lanes)
+        surface_materials(sc, tr, sf);
 }
 
 /* Direct light at the hits of one bounce: the axle light and the scene's lights, Lambertian
@@ -364,9 +400,16 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
                     toward[i] = len > 0.0 ? toward[i] / len : 0.0;
             }
             double c = sf->n[0][l] * toward[0] + sf->n[1][l] * toward[1] + sf->n[2][l] * toward[2];
-            if (c > 0.0)
+            if ((sf->bsdf_lanes >> l) & 1) {
+                /* In the paper's units: pi times the BSDF, which is albedo * cos for Lambert. */
+                double view[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, f[3];
+                bsdf_eval(&sf->bsdf[l], (const float[3]){sf->n[0][l], sf->n[1][l], sf->n[2][l]}, view, toward, f);
+                for (int i = 0; i < 3; i++)
+                    direct[i][l] += (float)(sh->axle_light * M_PI * f[i]);
+            } else if (c > 0.0) {
                 for (int i = 0; i < 3; i++)
                     direct[i][l] += (float)(sh->axle_light * c);
+            }
         }
     }
     for (int j = 0; j < sh->light_count && !cancelled(sc); j++) {
@@ -399,6 +442,14 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
             cosv[l] = c;
             for (int i = 0; i < 3; i++)
                 E[i][l] = e[i] * M_1_PI;
+            if ((sf->bsdf_lanes >> l) & 1) {
+                /* The material's BSDF (its cosine included) instead of Lambert's albedo / pi. */
+                double view[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, f[3];
+                bsdf_eval(&sf->bsdf[l], (const float[3]){sf->n[0][l], sf->n[1][l], sf->n[2][l]}, view, dl, f);
+                cosv[l] = 1.0;
+                for (int i = 0; i < 3; i++)
+                    E[i][l] = e[i] * f[i];
+            }
             for (int i = 0; i < 3; i++) {
                 sr.origin[i][l] = p[i] + sf->bias[l] * sf->n[i][l];
                 sr.dir[i][l] = dl[i];
@@ -475,6 +526,7 @@ static inline void put(float *buf, size_t idx, int chans, const float *v, int sa
 typedef struct {
     float L[3][UB_LANES], W[UB_LANES], Wr[UB_LANES], R[3][UB_LANES];
     float pass_ao[UB_LANES], pass_shadow[UB_LANES], pass_trap[UB_LANES];
+    float coverage[UB_LANES]; /* the first hit's alpha (a material's Alpha; 1 without) */
     float pass_diffuse[3][UB_LANES], pass_ambient[3][UB_LANES];
     double pos0[3][UB_LANES];
     float nrm0[3][UB_LANES];
@@ -501,6 +553,7 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
         ps->pass_ao[l] = 1.0f;
         ps->pass_shadow[l] = 1.0f;
         ps->pass_trap[l] = 0.0f;
+        ps->coverage[l] = 1.0f;
         for (int i = 0; i < 3; i++) {
             ps->L[i][l] = ps->R[i][l] = 0.0f;
             ps->pass_diffuse[i][l] = ps->pass_ambient[i][l] = 0.0f;
@@ -551,7 +604,7 @@ static int add_background(const ub_scene *sc, int bounce, int alive, const ub_pa
 
 /* The local light of each hit lane (diffuse and ambient, fogged) into the paths, the first
  * bounce's passes, and the mirrored rays of the lanes that go on; returns those lanes. */
-static int add_surface_light(const ub_shading *sh, int bounce, int hit_lanes, const ub_surface *sf,
+static int add_surface_light(const ub_shading *sh, const ub_film *film, int bounce, int hit_lanes, const ub_surface *sf,
                              const float direct[3][UB_LANES], const float shadow[UB_LANES],
                              const float ao[UB_LANES], const ub_trace_result *tr, ub_packet_rays *pr, ub_paths *ps)
 {
@@ -564,10 +617,18 @@ static int add_surface_light(const ub_shading *sh, int bounce, int hit_lanes, co
         float r = last ? 0.0f : sf->reflectivity[l];
         float f = sh->fog_density > 0.0 ? (float)(1.0 - ub_exp(-sh->fog_density * tr->t[l])) : 0.0f;
         float local[3], dif[3], amb[3];
+        int material = (sf->bsdf_lanes >> l) & 1;
+        /* A material's alpha: the surface covers that fraction; the background shows through the rest. */
+        float a = sf->alpha[l];
         for (int i = 0; i < 3; i++) {
-            dif[i] = (1.0f - r) * sf->albedo[i][l] * direct[i][l];
+            /* With a material the direct light went through its BSDF, colour included. */
+            dif[i] = material ? (1.0f - r) * a * direct[i][l] : (1.0f - r) * sf->albedo[i][l] * direct[i][l];
             amb[i] = (1.0f - r) * sf->albedo[i][l] * sh->ambient[i] * ao[l];
             local[i] = dif[i] + amb[i];
+            if (material) {
+                amb[i] *= a;
+                local[i] = dif[i] + amb[i] + a * sf->emission[i][l] + (1.0f - a) * film->background[i];
+            }
             ps->L[i][l] += ps->W[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
             if (bounce > 0)
                 ps->R[i][l] += ps->Wr[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
@@ -583,11 +644,16 @@ static int add_surface_light(const ub_shading *sh, int bounce, int hit_lanes, co
             ps->pass_ao[l] = ao[l];
             ps->pass_shadow[l] = shadow[l];
             ps->pass_trap[l] = sf->trap[l];
+            ps->coverage[l] = a;
             ps->Wr[l] = r;
         } else {
             ps->Wr[l] *= (1.0f - f) * r;
         }
+        if (material)
+            ps->Wr[l] *= a;
         ps->W[l] *= (1.0f - f) * r;
+        if (material)
+            ps->W[l] *= a;
         if (!(ps->W[l] > 0.0f))
             continue;
         /* Mirror reflection about the normal (which faces the incoming ray). */
@@ -637,6 +703,10 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
         float rgba[4] = {ps->L[0][l] + glow[0], ps->L[1][l] + glow[1], ps->L[2][l] + glow[2],
                          hit || unseen ? 1.0f : film->background[3]};
         float alpha = hit ? 1.0f : 0.0f, zero3[3] = {0, 0, 0};
+        if (hit && ps->coverage[l] < 1.0f) { /* a material's alpha: the background's share shows */
+            alpha = ps->coverage[l];
+            rgba[3] = alpha + (1.0f - alpha) * film->background[3];
+        }
         /* Depth: along the view axis, or for panoramic cameras the distance from the camera
          * (Cycles' camera_z_depth). */
         double depth = 0.0;
@@ -747,7 +817,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                         ao[l] = 1.0f;
                 if (cancelled(sc))
                     return;
-                alive = add_surface_light(sh, bounce, hit_lanes, &sf, direct, shadow, ao, &tr, &pr, &ps);
+                alive = add_surface_light(sh, film, bounce, hit_lanes, &sf, direct, shadow, ao, &tr, &pr, &ps);
             }
             write_passes(sc, sample, x, y, n, &ps, cnt);
         }

@@ -34,6 +34,7 @@ static const char *const threshold_modes[] = {"pixel", "fixed", NULL};
 static const char *const normal_methods[] = {"gradient_distance", "gradient_potential", "zbuffer", "analytic",
                                              NULL};
 static const char *const color_modes[] = {"base", "orbit_trap", "iterations", NULL};
+static const char *const attributes[] = {"none", "orbit_trap", "iterations", "distance", "position", "normal", NULL};
 static const char *const cubic_components[] = {"plus", "minus", "union", "both", NULL};
 static const char *const light_types[] = {"point", "sun", "spot", "area", NULL};
 static const char *const shadow_modes[] = {"none", "hard", "soft", NULL};
@@ -57,6 +58,17 @@ static const double default_maps[48] = {
  * hybrid: one Mandelbulb step, one Mandelbox step. */
 static const double default_kifs_planes[12] = {1, 1, 0, 0, 1, 0, 1, 0, 0, 1, 1, 0};
 static const double default_hybrid_steps[4] = {0, 1, 1, 1};
+
+/* The four rows of a material input an attribute can drive (scene.h ub_material_map). */
+#define MATERIAL_MAP(input, channels, label)                                                                 \
+    CHOICE(OBJ, material_##input##_source, attributes, NULL,                                                 \
+           "material: the attribute driving " label " (none: its constant)"),                             \
+    LIST(OBJ, material_##input##_ramp, 1, channels, -1e6, 1e6, 2, UB_MAX_RAMP, NULL, 0, UB_PARAM_NONE_OK,     \
+         "material: " label " over the attribute, uniformly spaced over [0, 1] (a Color Ramp or Map Range)"),  \
+    REAL(OBJ, material_##input##_scale, -1e12, 1e12, D(1.0),                                                 \
+         "material: " label " ramp position = clamp(attribute * scale + offset, 0, 1)"),                   \
+    REAL(OBJ, material_##input##_offset, -1e12, 1e12, NULL,                                                  \
+         "material: " label " ramp position = clamp(attribute * scale + offset, 0, 1)")
 
 #define OBJ ub_object_input
 static const ub_param object_rows[] = {
@@ -122,6 +134,18 @@ static const ub_param object_rows[] = {
     {"zoom_anchor", UB_PARAM_STRING, FIELD_OF(OBJ, zoom_anchor), 1, 1, 0, UB_MAX_ANCHOR - 1, NULL, NULL, 0,
      "zoomed kinds: the fractal's object-space point at the object's origin, three decimal numbers 'x y z' "
      "with as many digits as the zoom needs", 0, 0, 0, 0, 0, NULL, "0 0 0"},
+    FLAG(OBJ, use_material, NULL, "a Principled BSDF material (the material_* keys) instead of colour and Lambertian shading"),
+    VECTOR(OBJ, material_base_color, 3, 0.0, 1e6, D(0.8, 0.8, 0.8), 0, "material: Base Color, scene-linear RGB"),
+    REAL(OBJ, material_metallic, 0.0, 1.0, NULL, "material: Metallic"),
+    REAL(OBJ, material_roughness, 0.0, 1.0, D(0.5), "material: Roughness (GGX alpha = roughness^2)"),
+    REAL(OBJ, material_ior, 0.0, 1e3, D(1.5), "material: IOR of the dielectric specular layer"),
+    REAL(OBJ, material_specular_ior_level, 0.0, 1e6, D(0.5),
+         "material: Specular IOR Level (0.5: the IOR's own reflectance; F0 scales by 2 level)"),
+    VECTOR(OBJ, material_emission, 3, 0.0, 1e12, NULL, 0, "material: Emission Color times Emission Strength"),
+    REAL(OBJ, material_alpha, 0.0, 1.0, D(1.0), "material: Alpha, the surface's coverage"),
+    MATERIAL_MAP(base_color, 3, "Base Color"),
+    MATERIAL_MAP(metallic, 1, "Metallic"),
+    MATERIAL_MAP(roughness, 1, "Roughness"),
 };
 #undef OBJ
 const ub_param_section ub_object_section = {"object", ROWS(object_rows), sizeof(ub_object_input)};

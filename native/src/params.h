@@ -102,6 +102,16 @@ typedef struct {
     double hybrid_steps[UB_MAX_HYBRID_STEPS][2];
     double zoom;
     char zoom_anchor[UB_MAX_ANCHOR];
+    /* The Principled BSDF material (scene.h ub_material); each driven input: source, ramp, scale, offset. */
+    int use_material;
+    double material_base_color[3], material_metallic, material_roughness, material_ior;
+    double material_specular_ior_level, material_emission[3], material_alpha;
+    int material_base_color_source, material_base_color_ramp_count;
+    double material_base_color_ramp[UB_MAX_RAMP][3], material_base_color_scale, material_base_color_offset;
+    int material_metallic_source, material_metallic_ramp_count;
+    double material_metallic_ramp[UB_MAX_RAMP][1], material_metallic_scale, material_metallic_offset;
+    int material_roughness_source, material_roughness_ramp_count;
+    double material_roughness_ramp[UB_MAX_RAMP][1], material_roughness_scale, material_roughness_offset;
 } ub_object_input;
 
 typedef struct {

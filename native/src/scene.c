@@ -482,6 +482,68 @@ static void to_float3(float out[3], const double in[3])
         out[c] = (float)in[c];
 }
 
+/* One attribute-driven material input; NULL or a message. */
+static const char *material_map_from_input(ub_material_map *map, int source, int size, const double *table,
+                                           int channels, double scale, double offset, const char *message)
+{
+    map->source = (ub_attribute)source;
+    if (source == UB_ATTRIBUTE_NONE)
+        return NULL;
+    if (size < 2)
+        return message;
+    map->size = size;
+    map->scale = (float)scale;
+    map->offset = (float)offset;
+    for (int i = 0; i < size; i++)
+        for (int c = 0; c < 3; c++)
+            map->table[i][c] = (float)table[i * channels + (channels == 3 ? c : 0)];
+    return NULL;
+}
+
+/* Cycles' IOR and F0 from Specular IOR Level (svm_node_closure_bsdf, Principled): F0 scales by
+ * 2 level, and the IOR follows from the scaled F0 (F0 at most 0.99). */
+static void specular_ior(double ior, double level, double *eta, double *f0)
+{
+    ior = fmax(ior, 1e-5);
+    *eta = ior;
+    *f0 = (ior - 1.0) / (ior + 1.0) * ((ior - 1.0) / (ior + 1.0));
+    if (level != 0.5) {
+        *f0 *= 2.0 * level;
+        double root = sqrt(fmin(fmax(*f0, 0.0), 0.99));
+        *eta = (1.0 + root) / (1.0 - root);
+        if (ior < 1.0)
+            *eta = 1.0 / *eta;
+    }
+}
+
+static const char *material_from_input(ub_material *m, const ub_object_input *in)
+{
+    m->enabled = in->use_material;
+    if (!m->enabled)
+        return NULL;
+    to_float3(m->base_color, in->material_base_color);
+    to_float3(m->emission, in->material_emission);
+    m->metallic = (float)in->material_metallic;
+    m->roughness = (float)in->material_roughness;
+    m->alpha = (float)in->material_alpha;
+    specular_ior(in->material_ior, in->material_specular_ior_level, &m->eta, &m->specular_f0);
+    const char *err = material_map_from_input(
+        &m->base_color_map, in->material_base_color_source, in->material_base_color_ramp_count,
+        &in->material_base_color_ramp[0][0], 3, in->material_base_color_scale, in->material_base_color_offset,
+        "material_base_color_source names an attribute but material_base_color_ramp is None");
+    if (!err)
+        err = material_map_from_input(
+            &m->metallic_map, in->material_metallic_source, in->material_metallic_ramp_count,
+            &in->material_metallic_ramp[0][0], 1, in->material_metallic_scale, in->material_metallic_offset,
+            "material_metallic_source names an attribute but material_metallic_ramp is None");
+    if (!err)
+        err = material_map_from_input(
+            &m->roughness_map, in->material_roughness_source, in->material_roughness_ramp_count,
+            &in->material_roughness_ramp[0][0], 1, in->material_roughness_scale, in->material_roughness_offset,
+            "material_roughness_source names an attribute but material_roughness_ramp is None");
+    return err;
+}
+
 const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
 {
     memset(obj, 0, sizeof *obj);
@@ -537,7 +599,9 @@ const char *ub_object_from_input(ub_object *obj, const ub_object_input *in)
         obj->hybrid_formula[i] = f == floor(f) ? (int)f : -1;
         obj->hybrid_repeat[i] = n == floor(n) ? (int)n : -1;
     }
-    const char *err = ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
+    const char *err = material_from_input(&obj->material, in);
+    if (!err)
+        err = ub_object_prepare(obj, in->theta, in->slice_basis, in->slice_origin, in->matrix);
     if (!err)
         err = ub_zoom_prepare(obj, in->zoom, in->zoom_anchor);
     /* A zoomed formula kind's empirical step cap grew with the zoom (zoom_formulas.c); the user's

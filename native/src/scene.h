@@ -119,6 +119,38 @@ typedef enum {
 
 typedef enum { UB_COLOR_BASE = 0, UB_COLOR_ORBIT_TRAP, UB_COLOR_ITERATIONS } ub_color_mode;
 
+/* The fractal's own quantities a material input can be driven by (Blender's Attribute node named
+ * unbound_<name>): none (the input's constant), the orbit trap, iterations / max_iterations, the
+ * distance estimate at the hit (world units, the Distance pass), the object-space position and the
+ * world-space normal (vectors, read as the mean of their components: the Attribute node's Fac). */
+typedef enum {
+    UB_ATTRIBUTE_NONE = 0,
+    UB_ATTRIBUTE_ORBIT_TRAP,
+    UB_ATTRIBUTE_ITERATIONS,
+    UB_ATTRIBUTE_DISTANCE,
+    UB_ATTRIBUTE_POSITION,
+    UB_ATTRIBUTE_NORMAL,
+} ub_attribute;
+
+/* A material input driven by an attribute: value = table at clamp(attribute * scale + offset, 0, 1),
+ * the table sampled uniformly over [0, 1] (a Color Ramp, or a Map Range's two ends). */
+typedef struct {
+    ub_attribute source;       /* UB_ATTRIBUTE_NONE: the input's constant */
+    int size;                  /* entries of table, >= 2 when driven */
+    float scale, offset;
+    float table[UB_MAX_RAMP][3]; /* scalar inputs use channel 0 */
+} ub_material_map;
+
+/* A Principled BSDF (Cycles 4.x; native/src/bsdf.h) on a fractal: its constant inputs, the derived
+ * specular F0 and relative IOR (after Specular IOR Level, as Cycles adjusts them), and the maps of
+ * the inputs an attribute drives. enabled 0: the object shades as without a material. */
+typedef struct {
+    int enabled;
+    float base_color[3], metallic, roughness, emission[3], alpha;
+    double eta, specular_f0;
+    ub_material_map base_color_map, metallic_map, roughness_map;
+} ub_material;
+
 typedef struct {
     ub_fractal_kind kind;
     /* Iterated map f(z) = z^2 + mu over the quaternions (eq. 1-4). */
@@ -208,6 +240,7 @@ typedef struct {
     int hybrid_has_bulb;
     /* Deep zoom (zoom.h): the quaternion kinds' local point u is the fractal's anchor + u 10^-zoom. */
     ub_zoom zoom;
+    ub_material material;
 } ub_object;
 
 typedef enum { UB_KIFS_SPHERE = 0, UB_KIFS_BOX, UB_KIFS_TETRAHEDRON, UB_KIFS_OCTAHEDRON } ub_kifs_shape;

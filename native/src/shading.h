@@ -124,6 +124,20 @@ static int light_sample(const ub_light *L, const double p[3], double l[3], doubl
     return 1;
 }
 
+/* A ramp of `size` >= 2 colours uniformly spaced over [0, 1] at value * scale + offset (clamped). */
+static void ramp_lookup(const float (*ramp)[3], int size, float value, float scale, float offset, float out[3])
+{
+    float x = value * scale + offset;
+    x = x < 0.0f ? 0.0f : (x > 1.0f ? 1.0f : x);
+    float f = x * (float)(size - 1);
+    int i = (int)f;
+    if (i >= size - 1)
+        i = size - 2;
+    float w = f - (float)i;
+    for (int c = 0; c < 3; c++)
+        out[c] = ramp[i][c] * (1.0f - w) + ramp[i + 1][c] * w;
+}
+
 /* Colour of a fractal hit: the base colour, or the ramp at the orbit trap or iteration count. */
 static void albedo(const ub_object *o, float trap, float iterations, float out[3])
 {
@@ -133,13 +147,64 @@ static void albedo(const ub_object *o, float trap, float iterations, float out[3
         return;
     }
     float v = o->color_mode == UB_COLOR_ORBIT_TRAP ? trap : iterations / (float)o->max_iterations;
-    float x = v * o->ramp_scale + o->ramp_offset;
-    x = x < 0.0f ? 0.0f : (x > 1.0f ? 1.0f : x);
-    float f = x * (float)(o->ramp_size - 1);
-    int i = (int)f;
-    if (i >= o->ramp_size - 1)
-        i = o->ramp_size - 2;
-    float w = f - (float)i;
+    ramp_lookup((const float (*)[3])o->ramp, o->ramp_size, v, o->ramp_scale, o->ramp_offset, out);
+}
+
+/* The fractal's quantities at a hit that a material can read (scene.h ub_attribute). */
+typedef struct {
+    float trap, iterations, distance;
+    double p[3];   /* world position */
+    float n[3];    /* world unit normal */
+} ub_hit_attributes;
+
+static float attribute_value(const ub_object *o, ub_attribute a, const ub_hit_attributes *h)
+{
+    switch (a) {
+    case UB_ATTRIBUTE_ORBIT_TRAP:
+        return h->trap;
+    case UB_ATTRIBUTE_ITERATIONS:
+        return h->iterations / (float)o->max_iterations;
+    case UB_ATTRIBUTE_DISTANCE:
+        return h->distance;
+    case UB_ATTRIBUTE_POSITION: {
+        double sum = 0.0; /* object space, the mean of x, y, z */
+        for (int r = 0; r < 3; r++)
+            sum += o->world_to_object[r][0] * h->p[0] + o->world_to_object[r][1] * h->p[1]
+                 + o->world_to_object[r][2] * h->p[2] + o->world_to_object[r][3];
+        return (float)(sum / 3.0);
+    }
+    case UB_ATTRIBUTE_NORMAL:
+        return (h->n[0] + h->n[1] + h->n[2]) / 3.0f;
+    default:
+        return 0.0f;
+    }
+}
+
+/* A material input: its constant, or its map's table at the attribute. */
+static void material_input(const ub_object *o, const ub_material_map *map, const float *constant, int channels,
+                           const ub_hit_attributes *h, double out[3])
+{
+    float v[3] = {constant[0], channels == 3 ? constant[1] : 0.0f, channels == 3 ? constant[2] : 0.0f};
+    if (map->source != UB_ATTRIBUTE_NONE)
+        ramp_lookup((const float (*)[3])map->table, map->size, attribute_value(o, map->source, h), map->scale,
+                    map->offset, v);
     for (int c = 0; c < 3; c++)
-        out[c] = o->ramp[i][c] * (1.0f - w) + o->ramp[i + 1][c] * w;
+        out[c] = v[c];
+}
+
+/* The BSDF of object o's material at a hit, as Cycles clamps the Principled inputs (base colour
+ * >= 0, metallic and roughness in [0, 1]). */
+static void bsdf_at(const ub_object *o, const ub_hit_attributes *h, ub_bsdf *b)
+{
+    const ub_material *m = &o->material;
+    double v[3];
+    material_input(o, &m->base_color_map, m->base_color, 3, h, b->base);
+    for (int c = 0; c < 3; c++)
+        b->base[c] = b->base[c] > 0.0 ? b->base[c] : 0.0;
+    material_input(o, &m->metallic_map, &m->metallic, 1, h, v);
+    b->metallic = bsdf_clamp01(v[0]);
+    material_input(o, &m->roughness_map, &m->roughness, 1, h, v);
+    b->roughness = bsdf_clamp01(v[0]);
+    b->eta = m->eta;
+    b->specular_f0 = m->specular_f0;
 }

@@ -19,6 +19,7 @@ ADDON_ONLY = {
         "hybrid_steps": "hybrid_steps (export.object_parameters: formula index, count)",
         "hybrid_active_step": "the entry shown for editing",
         "color_ramp_texture": "color_ramp (export.ramp_table)",
+        "material": "use_material and the material_* keys (export.material_description)",
         "show_proxy": "proxy.py: whether Solid shading draws the surface",
         "proxy_resolution": "proxy.py: extract_mesh's resolution for the Solid-shading surface",
     },
@@ -107,6 +108,19 @@ def every_core_key_is_reachable(S, mod):
         ob = bpy.context.object
         ob.unbound.color_mode = 'ORBIT_TRAP'
         ob.unbound.color_ramp_texture = texture
+    # A material whose three driven inputs read attributes: the material_* keys.
+    material = bpy.data.materials.new("Driven")
+    material.use_nodes = True
+    tree = material.node_tree
+    bsdf = tree.nodes["Principled BSDF"]
+    for socket, via, name in (("Base Color", "ShaderNodeValToRGB", "unbound_orbit_trap"),
+                              ("Metallic", "ShaderNodeMapRange", "unbound_iterations"),
+                              ("Roughness", "ShaderNodeValToRGB", "unbound_distance")):
+        attribute, node = tree.nodes.new("ShaderNodeAttribute"), tree.nodes.new(via)
+        attribute.attribute_name = name
+        tree.links.new(attribute.outputs["Fac"], node.inputs[0])
+        tree.links.new(node.outputs[0], bsdf.inputs[socket])
+    ob.unbound.material = material
     dg = bpy.context.evaluated_depsgraph_get()
     for params in export.fractal_objects(dg, original=True):  # script changes, untagged
         object_keys |= set(params)
