@@ -322,38 +322,54 @@ static void linear_map(const double z[4], double m[4][4])
     }
 }
 
-/* Bilinear approximation's first row (Julia, from the anchor's orbit): while |delta_j| is below
- * UB_ZOOM_SKIP_TOLERANCE |Z_j|, delta_{j+1} = L_j delta_j to double's rounding, so K iterations are
- * one matrix M_K = L_{K-1} ... L_0. |delta_j| <= |M_j|_F |delta_0| (Frobenius: above the operator
- * norm) gives each entry's radius. Returns the entries filled. */
-static int skip_table(ub_zoom *zm)
+/* The perturbation's linear start (bilinear approximation's first row). While |delta_j| is below
+ * UB_ZOOM_SKIP_TOLERANCE |Z_j|, delta_{j+1} = L_j delta_j (+ delta_c for the Mandelbrot slice) to
+ * double's rounding, so K iterations from the start are one matrix: M_{K+1} = L M_K (Julia) or
+ * L M_K + I (Mandelbrot, where delta_start = delta_1 = delta_c). |delta_j| <= |M_j|_F |delta_start|
+ * (Frobenius: above the operator norm) gives each entry's radius, over j = start .. start + K. The bookkeeping takes |z_j| as
+ * the reference's |Z_j|: they differ by the same relative 2^-30, far below the float32 estimate's
+ * resolution. Returns the entries filled; fills skip_first, the lanes' shortcut into the table. */
+static int skip_table(ub_zoom *zm, int julia)
 {
-    double m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
-    double radius = HUGE_VAL, dr2 = 1.0, trap = norm2_of(zm->ref[0]);
+    const double identity[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+    const int start = julia ? 0 : 1;
+    double m[4][4];
+    memcpy(m, identity, sizeof m);
+    double radius = UB_ZOOM_SKIP_TOLERANCE * sqrt(norm2_of(zm->ref[start])) / 2.0; /* |I|_F = 2 */
+    double dr2 = 1.0, trap = norm2_of(zm->ref[start]);
     int count = 0;
-    for (int j = 0; j + 1 < zm->ref_length; j++) {
-        double frob = 0.0;
-        for (int r = 0; r < 4; r++)
-            for (int c = 0; c < 4; c++)
-                frob += m[r][c] * m[r][c];
-        radius = fmin(radius, UB_ZOOM_SKIP_TOLERANCE * sqrt(norm2_of(zm->ref[j])) / sqrt(frob));
+    for (int j = start; j + 1 < zm->ref_length; j++) {
         double l[4][4], next[4][4];
         linear_map(zm->ref[j], l);
         for (int r = 0; r < 4; r++)
             for (int c = 0; c < 4; c++)
-                next[r][c] = l[r][0] * m[0][c] + l[r][1] * m[1][c] + l[r][2] * m[2][c] + l[r][3] * m[3][c];
+                next[r][c] = l[r][0] * m[0][c] + l[r][1] * m[1][c] + l[r][2] * m[2][c] + l[r][3] * m[3][c]
+                             + (julia ? 0.0 : identity[r][c]);
         memcpy(m, next, sizeof m);
-        dr2 *= 4.0 * norm2_of(zm->ref[j]);
+        /* The entry K lands on holds the criterion too: there |z_K| > |delta_K|, so no glitch
+         * (ub_zoom_iterate's test after each step) is skipped over. */
+        double frob = 0.0;
+        for (int r = 0; r < 4; r++)
+            for (int c = 0; c < 4; c++)
+                frob += m[r][c] * m[r][c];
+        radius = fmin(radius, UB_ZOOM_SKIP_TOLERANCE * sqrt(norm2_of(zm->ref[j + 1])) / sqrt(frob));
+        dr2 = julia ? dr2 * 4.0 * norm2_of(zm->ref[j]) : 2.0 * sqrt(norm2_of(zm->ref[j])) * dr2 + 1.0;
         trap = fmin(trap, norm2_of(zm->ref[j + 1]));
         if (!(radius > 1e-300) || !(dr2 < 1e300))
             break; /* nothing more to skip (or about to overflow) */
-        if ((j + 1) % UB_ZOOM_SKIP_STRIDE == 0) {
-            count = (j + 1) / UB_ZOOM_SKIP_STRIDE;
-            memcpy(zm->skip[count].matrix, m, sizeof m);
-            zm->skip[count].radius = radius;
-            zm->skip[count].dr2 = dr2;
-            zm->skip[count].trap = trap;
-        }
+        count = j + 1 - start;
+        memcpy(zm->skip[count].matrix, m, sizeof m);
+        zm->skip[count].radius = radius;
+        zm->skip[count].dr2 = dr2;
+        zm->skip[count].trap = trap;
+    }
+    /* Radii never grow with K, so the K for |delta| < 2^(e+1) falls as e rises. */
+    int k = count;
+    for (int b = 0; b < 2048; b++) {
+        const double bound = ldexp(1.0, b - 1023 + 1);
+        while (k > 0 && !(zm->skip[k].radius >= bound))
+            k--;
+        zm->skip_first[b] = k;
     }
     return count;
 }
@@ -435,7 +451,7 @@ const char *ub_zoom_prepare(ub_object *obj, double zoom, const char *anchor_text
         zm->crit_length = zm->ref_length;
         memcpy(zm->crit, zm->ref, sizeof zm->ref);
     }
-    zm->skip_count = julia ? skip_table(zm) : 0;
+    zm->skip_count = skip_table(zm, julia);
     ub_zoom_view_ball(obj, anchor);
     /* The kernels' quaternion becomes the local offset B u; the estimate adds Q + 10^-zoom B u. */
     for (int r = 0; r < 4; r++)
@@ -507,8 +523,8 @@ void ub_zoom_start(const ub_object *o, int path, const double u_q[4], int want, 
                 s->j[a][k] = o->slice_basis[k][a];
     s->n = 0;
     s->rebases = 0;
-    if (!s->direct && julia && zm->skip_count > 0) {
-        /* The largest skip whose radius holds this point's delta_0 (radii shrink with K). */
+    if (!s->direct && zm->skip_count > 0) {
+        /* The largest skip whose radius holds this point's delta_start (radii shrink with K). */
         double d0 = sqrt(norm2_of(s->delta));
         int lo = 0, hi = zm->skip_count;
         while (lo < hi) {
@@ -518,14 +534,14 @@ void ub_zoom_start(const ub_object *o, int path, const double u_q[4], int want, 
             else
                 hi = mid - 1;
         }
-        int K = lo * UB_ZOOM_SKIP_STRIDE;
+        int K = lo;
         if (K > 0 && K < o->max_iterations) {
             const double(*m)[4] = zm->skip[lo].matrix;
             double nd[4];
             for (int r = 0; r < 4; r++)
                 nd[r] = m[r][0] * s->delta[0] + m[r][1] * s->delta[1] + m[r][2] * s->delta[2] + m[r][3] * s->delta[3];
             memcpy(s->delta, nd, sizeof s->delta);
-            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same linear maps */
+            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same maps (Mandelbrot: J_1 = B = dc/du) */
                 for (int a = 0; a < 3; a++) {
                     double nj[4];
                     for (int r = 0; r < 4; r++)
@@ -533,11 +549,15 @@ void ub_zoom_start(const ub_object *o, int path, const double u_q[4], int want, 
                                 + m[r][3] * s->j[a][3];
                     memcpy(s->j[a], nj, sizeof nj);
                 }
-            s->index = s->n = K;
+            s->index += K;
+            s->n = K;
             for (int k = 0; k < 4; k++)
-                s->z[k] = zm->ref[K][k] + s->delta[k];
+                s->z[k] = zm->ref[s->index][k] + s->delta[k];
             s->r2 = norm2_of(s->z);
-            s->dr2 = zm->skip[lo].dr2;
+            if (julia)
+                s->dr2 = zm->skip[lo].dr2;
+            else
+                s->dm = zm->skip[lo].dr2;
             s->trap = zm->skip[lo].trap;
             s->gscale = ldexp(1.0, -K);
         }

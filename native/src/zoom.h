@@ -52,12 +52,12 @@ typedef struct {
  * the whole set's bounding ball is 10^zoom local units across, far beyond float32's reach. */
 #define UB_ZOOM_VIEW_RADIUS 64.0
 
-/* Skip table: entries every UB_ZOOM_SKIP_STRIDE iterations; an iteration is linear to within
- * UB_ZOOM_SKIP_TOLERANCE (relative) when |delta_j| <= that fraction of |Z_j|: the dropped delta^2
- * is then ~1e-9 of what is kept, as if the point moved by ~1e-7 of its local offset over a hundred
- * skipped iterations: below float32's resolution of that offset (measured: the referee's figures
- * do not change from 2^-40 to 2^-30; zoom 30 frames 1.4x faster). */
-#define UB_ZOOM_SKIP_STRIDE 8
+/* Skip table: entry K holds the first K iterations of the perturbation as one linear (Julia) or
+ * affine (Mandelbrot: + delta_c) map, for every K (no stride: a point skips as far as its own
+ * delta_0 allows). An iteration is linear to within UB_ZOOM_SKIP_TOLERANCE (relative) when
+ * |delta_j| <= that fraction of |Z_j|: the dropped delta^2 is then ~1e-9 of what is kept, as if the
+ * point moved by ~1e-7 of its local offset over a hundred skipped iterations: below float32's
+ * resolution of that offset (measured: the referee's figures do not change from 2^-40 to 2^-30). */
 #define UB_ZOOM_SKIP_TOLERANCE 0x1p-30
 
 /* The formula kinds (Mandelbulb, Mandelbox, KIFS, hybrid: zoom_formulas.c) zoom in double only:
@@ -94,16 +94,21 @@ typedef struct {
     int ref_length, crit_length;
     double ref[UB_ZOOM_MAX_ORBIT + 1][4];
     double crit[UB_ZOOM_MAX_ORBIT + 1][4];
-    /* The Julia perturbation's linear start, skipped (zoom.c: skip_table): entry m covers the
-     * first K = m UB_ZOOM_SKIP_STRIDE iterations, valid for |delta_0| <= radius[m]: delta_K =
-     * matrix[m] delta_0, and what the skipped iterations add to the estimate's bookkeeping. */
+    /* The perturbation's linear start, skipped (zoom.c: skip_table): entry K covers the first K
+     * iterations from the reference's start (Julia: entry 0; Mandelbrot: entry 1, delta_1 =
+     * delta_c), valid for |delta_start| <= radius: delta_{start+K} = matrix delta_start, and what the
+     * skipped iterations add to the estimate's bookkeeping. */
     int skip_count;
     struct {
         double matrix[4][4];
-        double radius;    /* largest |delta_0| for which the quadratic terms stay below UB_ZOOM_SKIP_TOLERANCE */
-        double dr2;       /* prod 4 |Z_j|^2 over the skipped iterations */
-        double trap;      /* min |Z_j|^2 over j = 0..K */
-    } skip[UB_ZOOM_MAX_ORBIT / 8 + 1];
+        double radius;    /* largest |delta_start| for which the quadratic terms stay below UB_ZOOM_SKIP_TOLERANCE */
+        double dr2;       /* Julia: prod 4 |Z_j|^2; Mandelbrot: Milnor's dm <- 2 |Z_j| dm + 1 (from 1) */
+        double trap;      /* min |Z_j|^2 over the start and the K iterations */
+    } skip[UB_ZOOM_MAX_ORBIT + 1];
+    /* The lanes' search (zoom_lanes.h): per binary exponent e + 1023 of |delta_start| (e in
+     * [-1023, 1024]), the largest K whose radius holds 2^(e+1), a lower bound of the K the point
+     * takes; a few steps up from there find it. The scalar code's binary search is the reference. */
+    double skip_first[2048];
 } ub_zoom;
 
 /* Decimal text <-> fixed point. Parse: "[+-]digits[.digits][e[+-]digits]"; returns NULL or why

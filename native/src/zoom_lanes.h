@@ -293,21 +293,25 @@ static void zoom_start(const ub_object *o, int path, int bits, const float *cons
     v->dr2 = v->dm = v->add_scale = one;
     v->n = v->rebases = zero;
     const vdm wanted = vdm_from_bits(bits);
-    if (perturb && julia && zm->skip_count > 0) {
-        /* The largest skip whose radius holds delta_0 (radii shrink with K): the scalar binary
-         * search, every lane at once. */
+    if (perturb && zm->skip_count > 0) {
+        /* The largest skip whose radius holds delta_start (radii shrink with K): the scalar binary
+         * search's answer, found from the table's lower bound for |delta_start|'s binary exponent
+         * (skip_first) by steps up while the next radius still holds it: the same K. */
         const vd d0 = vd_sqrt(zoom_norm2(v->d));
         const double skip_at = (double)offsetof(ub_zoom, skip), skip_size = (double)sizeof zm->skip[0];
-        vd lo = zero, hi = vd_set1((double)zm->skip_count);
-        for (vdm open = vdm_and(wanted, vd_lt(lo, hi)); vdm_bits(open); open = vdm_and(open, vd_lt(lo, hi))) {
-            vd mid = vd_floor(vd_mul(vd_add(vd_add(lo, hi), one), vd_set1(0.5)));
-            vd at = vd_add(vd_set1(skip_at), vd_mul(mid, vd_set1(skip_size)));
-            vd radius = vd_gather(zero, open, base + offsetof(ub_zoom, skip[0].radius) - offsetof(ub_zoom, skip), at);
-            vdm holds = vd_ge(radius, d0);
-            lo = vd_select(vdm_and(open, holds), mid, lo);
-            hi = vd_select(vdm_andnot(holds, open), vd_sub(mid, one), hi);
+        const double radius_at = (double)offsetof(ub_zoom, skip[0].radius);
+        const vd count = vd_set1((double)zm->skip_count);
+        vd mantissa, exponent;
+        vd_split_exponent(d0, &mantissa, &exponent); /* e + 1023 in [0, 2047] for any double */
+        const vd bucket = vd_mul(vd_add(exponent, vd_set1(1023.0)), vd_set1((double)sizeof(double)));
+        vd lo = vd_gather(zero, wanted, base + offsetof(ub_zoom, skip_first), bucket);
+        for (vdm open = vdm_and(wanted, vd_lt(lo, count)); vdm_bits(open); open = vdm_and(open, vd_lt(lo, count))) {
+            const vd next = vd_add(lo, one);
+            const vd radius = vd_gather(zero, open, base, vd_add(vd_set1(radius_at), vd_mul(next, vd_set1(skip_size))));
+            open = vdm_and(open, vd_ge(radius, d0));
+            lo = vd_select(open, next, lo);
         }
-        const vd K = vd_mul(lo, vd_set1(UB_ZOOM_SKIP_STRIDE));
+        const vd K = lo;
         const vdm skip = vdm_and(vdm_and(wanted, vd_gt(K, zero)), vd_lt(K, vd_set1((double)o->max_iterations)));
         if (vdm_bits(skip)) {
             const vd at = vd_add(vd_set1(skip_at), vd_mul(lo, vd_set1(skip_size)));
@@ -321,7 +325,7 @@ static void zoom_start(const ub_object *o, int path, int bits, const float *cons
                                vd_mul(m[r][3], v->d[3]));
             for (int r = 0; r < 4; r++)
                 v->d[r] = vd_select(skip, nd[r], v->d[r]);
-            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same linear maps */
+            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same maps */
                 for (int a = 0; a < 3; a++) {
                     vd *h = v->j[a], nj[4];
                     for (int r = 0; r < 4; r++)
@@ -331,14 +335,18 @@ static void zoom_start(const ub_object *o, int path, int bits, const float *cons
                         h[r] = vd_select(skip, nj[r], h[r]);
                 }
             v->n = vd_select(skip, K, v->n);
-            v->offset = vd_select(skip, vd_add(vd_set1(ref_at), vd_mul(K, vd_set1(ZOOM_ENTRY))), v->offset);
+            v->offset = vd_select(skip, vd_add(v->offset, vd_mul(K, vd_set1(ZOOM_ENTRY))), v->offset);
             vd z[4];
             for (int k = 0; k < 4; k++)
                 z[k] = vd_add(vd_gather(zero, skip, base + k * sizeof(double), v->offset), v->d[k]);
             for (int k = 0; k < 4; k++)
                 v->z[k] = vd_select(skip, z[k], v->z[k]);
             v->r2 = vd_select(skip, zoom_norm2(z), v->r2);
-            v->dr2 = vd_gather(v->dr2, skip, base + offsetof(ub_zoom, skip[0].dr2) - offsetof(ub_zoom, skip), at);
+            const vd bookkeeping = vd_gather(one, skip, base + offsetof(ub_zoom, skip[0].dr2) - offsetof(ub_zoom, skip), at);
+            if (julia)
+                v->dr2 = vd_select(skip, bookkeeping, v->dr2);
+            else
+                v->dm = vd_select(skip, bookkeeping, v->dm);
             v->trap = vd_gather(v->trap, skip, base + offsetof(ub_zoom, skip[0].trap) - offsetof(ub_zoom, skip), at);
         }
     }
