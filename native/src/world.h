@@ -163,9 +163,11 @@ static double diffuse_sample(const float n[3], double r1, double r2, double wi[3
 }
 
 /* One direction of a world-light pair at lane l: its radiance over (p_map + p_surface) times the
- * surface's response; 0 if nothing can arrive. technique 0 draws from the map, 1 from the surface. */
-static int world_direction_weight(const ub_world *wd, const float n[3], int technique, double r1, double r2,
-                                  double d[3], double weight[3])
+ * surface's response (Lambert's cos / pi, or the material's BSDF `b` seen from wo, its colour
+ * included); 0 if nothing can arrive. technique 0 draws from the map, 1 from the surface (cosine:
+ * unbiased for a glossy material too, if noisier). */
+static int world_direction_weight(const ub_world *wd, const float n[3], const ub_bsdf *b, const double wo[3],
+                                  int technique, double r1, double r2, double d[3], double weight[3])
 {
     double p_map, p_surface;
     int i, j;
@@ -181,18 +183,24 @@ static int world_direction_weight(const ub_world *wd, const float n[3], int tech
         world_texel(wd, u, v, &i, &j);
         p_map = world_pdf(wd, i, j, ub_hypot(d[0], d[1]));
     }
-    double response = diffuse_response(n, d);
-    if (!(response > 0.0) || !(p_map + p_surface > 0.0))
+    double response[3];
+    if (b) {
+        if (!(n[0] * d[0] + n[1] * d[1] + n[2] * d[2] > 0.0))
+            return 0;
+        bsdf_eval(b, n, wo, d, response);
+    } else {
+        response[0] = response[1] = response[2] = diffuse_response(n, d);
+    }
+    if (!(p_map + p_surface > 0.0))
         return 0;
     const float *L = wd->rgb + ((size_t)j * wd->w + i) * 3;
-    double s = response / (p_map + p_surface);
     for (int k = 0; k < 3; k++)
-        weight[k] = L[k] * s;
+        weight[k] = L[k] * response[k] / (p_map + p_surface);
     return weight[0] > 0.0 || weight[1] > 0.0 || weight[2] > 0.0;
 }
 
-/* The world's light at the hits `lanes` of one bounce, added to `direct` (irradiance / pi, as
- * direct_light's): world_samples pairs per hit, shadows marched as for the lights (any hit; the
+/* The world's light at the hits `lanes` of one bounce, added to `direct` as direct_light adds the
+ * lights' (irradiance / pi, or through a material's BSDF): world_samples pairs per hit, shadows marched as for the lights (any hit; the
  * sea blocks what comes from below it). Lane l is full-image pixel (px0 + step l, py). */
 static void world_light(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int px0, int py,
                         int step, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
@@ -221,8 +229,9 @@ static void world_light(const ub_scene *sc, const ub_de_params *dps, const sampl
                 double r1 = random_uniform(px0 + step * l, py, sp->index, dim);
                 double r2 = random_uniform(px0 + step * l, py, sp->index, dim + 1);
                 float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
-                double d[3], w[3];
-                if (!world_direction_weight(wd, n, technique, r1, r2, d, w))
+                const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
+                double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, d[3], w[3];
+                if (!world_direction_weight(wd, n, b, wo, technique, r1, r2, d, w))
                     continue;
                 /* The sea is opaque: the sky below it does not reach a point above it. */
                 if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)
