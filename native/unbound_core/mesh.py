@@ -20,7 +20,7 @@ class Mesh:
         self.trap = np.frombuffer(result["trap"], np.float32)
         self.iterations = np.frombuffer(result["iterations"], np.float32)
         self.estimate = np.frombuffer(result["estimate"], np.float32)
-        self.stats = {k: v for k, v in result.items() if not isinstance(v, bytes)}
+        self.stats = {k: v for k, v in result.items() if not isinstance(v, memoryview)}
 
 
 def extract(obj, **keywords):
