@@ -379,6 +379,15 @@ static void parallel_for(mctx *c, size_t count, size_t chunk, range_fn fn, void 
             ub_thread_join(th[i]);
 }
 
+/* Items a chunk of a parallel loop, for `items` at the default 16 iterations: fewer for more
+ * iterations, since a chunk is what a cancel waits for (the UI allows 10000 iterations, and a
+ * point inside the set runs them all). Chunks change no result: each item is its own. */
+static size_t chunk_items(const mctx *c, size_t items)
+{
+    size_t scaled = items * 16 / (size_t)(c->o->max_iterations > 16 ? c->o->max_iterations : 16);
+    return scaled > 16 ? scaled : 16;
+}
+
 /* A poll between phases (no parallel loop running). */
 static void poll_now(mctx *c, double f)
 {
@@ -627,7 +636,7 @@ static int track(mctx *c, vec *seeds, vec *active, int64_t *visited_count)
         eval_job ej = {(const uint64_t *)todo.data, (uint8_t *)flags.data};
         c->progress_lo = 0.15 + 0.45 * (1.0 - 1.0 / (1.0 + wave / 8.0));
         c->progress_hi = 0.15 + 0.45 * (1.0 - 1.0 / (1.0 + (wave + 1) / 8.0));
-        parallel_for(c, todo.n, 4096, eval_range, &ej);
+        parallel_for(c, todo.n, chunk_items(c, 4096), eval_range, &ej);
         if (c->cancel)
             break;
         /* The values are now the inside flags. */
@@ -787,7 +796,7 @@ static int flush_edges(mctx *c, vec *pend, size_t *base, vec *verts, double done
     bisect_job bj = {(const edge_rec *)pend->data, (float *)verts->data + 3 * *base};
     c->progress_lo = c->progress_hi;
     c->progress_hi = 0.62 + 0.33 * done;
-    parallel_for(c, pend->n, 1024, bisect_range, &bj);
+    parallel_for(c, pend->n, chunk_items(c, 1024), bisect_range, &bj);
     *base += pend->n;
     verts->n = 3 * *base;
     pend->n = 0;
@@ -1121,9 +1130,10 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     if (spacing < (opt->resolution + 255) / 256)
         spacing = (opt->resolution + 255) / 256;
     int64_t per_axis = (c.L - 2 + spacing - 1) / spacing;
-    /* Eight lines a chunk: a chunk is what a cancel waits for, and a line crosses thousands of cells
-     * at the operator's 8192; the seeds come out in line order whatever the chunk. */
-    size_t lines = (size_t)(3 * per_axis * per_axis), chunk = 8;
+    /* Eight lines a chunk at 16 iterations, down to one at 128 or more: a chunk is what a cancel
+     * waits for, and a line crosses thousands of cells at the operator's 8192; the seeds come out
+     * in line order whatever the chunk. */
+    size_t lines = (size_t)(3 * per_axis * per_axis), chunk = chunk_items(&c, 128) / 16;
     size_t nchunks = (lines + chunk - 1) / chunk;
     vec *chunks = m_realloc(&c, NULL, 0, nchunks * sizeof(vec));
     if (!chunks)
@@ -1202,7 +1212,7 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     attr_job aj = {out->vertices, out->trap, out->iterations, out->estimate};
     c.progress_lo = 0.96;
     c.progress_hi = 1.0;
-    parallel_for(&c, nv, 4096, attr_range, &aj);
+    parallel_for(&c, nv, chunk_items(&c, 4096), attr_range, &aj);
     if (c.cancel)
         goto cancelled;
     goto done;
