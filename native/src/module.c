@@ -745,9 +745,8 @@ static int parse_world(PyObject *o, Py_buffer *view, ub_world *world)
         /* Finite is not enough: 1e38 texels sum to infinity in the distribution. */
         if (!(rgb[k] >= 0.0f && rgb[k] <= 1e12f)) {
             PyBuffer_Release(view);
-            PyErr_Format(PyExc_ValueError,
-                         "world[%zd, %zd, %zd] is %g: the map's values must be finite, within [0, 1e12]",
-                         k / 3 / w, k / 3 % w, k % 3, (double)rgb[k]);
+            set_value_error("world[%zd, %zd, %zd] is %g: the map's values must be finite, within [0, 1e12]",
+                            k / 3 / w, k / 3 % w, k % 3, (double)rgb[k]);
             return -1;
         }
     }
@@ -1350,7 +1349,7 @@ static PyObject *py_zoom_anchor_move(PyObject *self, PyObject *args, PyObject *k
     if (read_string(anchor_o, "anchor", anchor, sizeof anchor))
         return NULL;
     if (!(zoom >= 0.0 && zoom <= UB_MAX_ZOOM)) {
-        PyErr_Format(PyExc_ValueError, "zoom must be within [0, %g]", UB_MAX_ZOOM);
+        set_value_error("zoom must be within [0, %g]", UB_MAX_ZOOM);
         return NULL;
     }
     static const ub_param offset_row = {"offset", UB_PARAM_FLOAT, 0, 1, 3, -1e9, 1e9, NULL, NULL, 0, "", 0, 0, 0, 0,
