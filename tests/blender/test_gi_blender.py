@@ -55,3 +55,14 @@ def test_ball_over_floor_matches_cycles_with_colour_bleeding(run_bpy, tmp_path):
     assert ratio(cycles) > 1.05
     assert abs(ratio(gi) / ratio(cycles) - 1) < 0.03
     assert ratio(gi) > 1.05 * ratio(direct)
+
+
+def test_light_paths_panel_and_export(run_bpy):
+    """Render tab > Light Paths (a sub-panel of Unbound's, closed by default like Cycles'), GI off
+    by default with Cycles' default limits 12 / 4 / 4, and the settings reach the shading dict
+    that F12 and the viewport share (export.shading_description)."""
+    r = run_bpy("gi.light_paths_panel_and_export")
+    assert r["panel"] == dict(label="Light Paths", parent="UNBOUND_PT_render", context="render", closed=True,
+                              registered=True), r["panel"]
+    assert r["defaults"] == dict(use_gi=False, max_bounces=12, diffuse_bounces=4, glossy_bounces=4)
+    assert r["exported"] == dict(use_gi=True, max_bounces=7, diffuse_bounces=3, glossy_bounces=2)

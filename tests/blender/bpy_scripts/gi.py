@@ -87,3 +87,20 @@ def ball_over_floor(S, mod, size, ball_color, floor_color, world_color, sun_towa
     renders["cycles"] = _rgba(S.render_to_exr(scene, "cycles.exr"))
     np.savez(TMP / "gi.npz", **renders)
     S.report(done=True)
+
+
+def light_paths_panel_and_export(S, mod):
+    """The Light Paths panel in the Render tab (under Unbound's, closed by default as Cycles' is)
+    and the settings in the shading dict that F12 and the viewport both send."""
+    scene = S.empty_scene()
+    S.add_fractal()
+    cls = mod.ui.UNBOUND_PT_render_light_paths
+    panel = dict(label=cls.bl_label, parent=cls.bl_parent_id, context=cls.bl_context,
+                 closed='DEFAULT_CLOSED' in cls.bl_options, registered=hasattr(bpy.types, cls.__name__))
+    u = scene.unbound
+    defaults = dict(use_gi=u.use_gi, max_bounces=u.max_bounces, diffuse_bounces=u.diffuse_bounces,
+                    glossy_bounces=u.glossy_bounces)
+    u.use_gi, u.max_bounces, u.diffuse_bounces, u.glossy_bounces = True, 7, 3, 2
+    shading = mod.export.shading_description(bpy.context.evaluated_depsgraph_get())
+    S.report(panel=panel, defaults=defaults,
+             exported={k: shading[k] for k in ("use_gi", "max_bounces", "diffuse_bounces", "glossy_bounces")})
