@@ -146,3 +146,31 @@ def test_gi_is_deterministic_across_threads_tiles_and_kernels(kernel):
     part, _ = render(cam, objs, simd=kernel, window=(5, 7, 20, 11), **kw)
     for k in base:
         assert np.array_equal(part[k], base[k][7:18, 5:25]), k
+
+
+def test_emission_lights_the_floor_as_a_glowing_sphere_does():
+    """A ball of emitted radiance Le (a black material: it reflects nothing) resting on a floor of
+    albedo rho, nothing else (black world, no lights): only bounce rays that hit the ball bring
+    light. A uniformly glowing sphere of radius 1 wholly above a point's horizon gives irradiance
+    pi Le cos(theta) / d^2 (d the distance to its centre), so the floor at d shows rho Le / d^3
+    (cos theta = 1 / d for a centre 1 above the floor). Without GI the floor is black."""
+    cam = make_camera(64, 48, eye=(0.0, -4.5, 2.0), target=(0.0, 0.0, -0.8))
+    Le, rho = 4.0, 0.6
+    ball = dict(BALL, use_material=True, material_base_color=(0.0, 0.0, 0.0), material_emission=(Le,) * 3,
+                material_metallic=0.0, material_ior=1.0)
+    shading = dict(FLOOR, sea_color=(rho,) * 3, axle_light=0.0, samples=128, world_samples=1, use_gi=True)
+    origin, direction, _ = rays_float64(cam)
+    _, closest = sphere_hits(origin, direction)
+    t = (-1.0 - origin[..., 2]) / direction[..., 2]
+    p = origin + t[..., None] * direction
+    d = np.linalg.norm(p, axis=-1)
+    floor = (t > 0) & (closest > 1.05) & (d < 3.0)
+    expected = rho * Le / d[floor] ** 3
+    passes, _ = render(cam, [ball], names=["combined"], background=(0, 0, 0, 1), shading=shading)
+    got = passes["combined"][..., 0][floor].astype(np.float64)
+    ratio = got / expected
+    se = ratio.std(ddof=1) / np.sqrt(len(ratio))
+    # Each pixel is an independent estimate: the mean ratio within 4 standard errors (about 0.7 %).
+    assert abs(ratio.mean() - 1) <= 4 * se and abs(ratio.mean() - 1) < 0.03, (ratio.mean(), se)
+    dark, _ = render(cam, [ball], names=["combined"], background=(0, 0, 0, 1), shading=dict(shading, use_gi=False))
+    assert np.all(dark["combined"][..., :3][floor] == 0.0)
