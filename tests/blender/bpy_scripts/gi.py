@@ -26,8 +26,18 @@ def _diffuse(name, color):
     return mat
 
 
+def _principled(name, color, metallic, roughness):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    for socket, value in (("Base Color", tuple(color) + (1.0,)), ("Metallic", metallic), ("Roughness", roughness),
+                          ("IOR", 1.5), ("Specular IOR Level", 0.5)):
+        bsdf.inputs[socket].default_value = value
+    return mat
+
+
 def ball_over_floor(S, mod, size, ball_color, floor_color, world_color, sun_toward, sun_energy, bounces,
-                    samples, world_samples, cycles_samples):
+                    samples, world_samples, cycles_samples, principled=None):
     """The red unit ball (mu = 0) touching a white diffuse floor at z = -1 (Unbound: the flat sea,
     no mirror; Cycles: a large plane), a sun and a uniform world. Renders Unbound with GI, Unbound
     without GI, Unbound's ball alone (its coverage, for the masks) and Cycles with the same bounce
@@ -45,8 +55,12 @@ def ball_over_floor(S, mod, size, ball_color, floor_color, world_color, sun_towa
     sun.data.angle = 0.0
     scene.collection.objects.link(sun)
     sun.rotation_euler = (-Vector(sun_toward)).to_track_quat('-Z', 'Y').to_euler()
-    S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4,
-                  color=tuple(ball_color))
+    ob = S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4,
+                       color=tuple(ball_color))
+    # A Principled BSDF (metallic, roughness) of the ball's colour instead of Lambert, in both engines.
+    ball_material = _principled("Ball", ball_color, *principled) if principled else _diffuse("Ball", ball_color)
+    if principled:
+        ob.unbound.material = ball_material
     u = scene.unbound
     u.axle_light = 0.0
     u.ambient = (0.0, 0.0, 0.0)
@@ -74,7 +88,7 @@ def ball_over_floor(S, mod, size, ball_color, floor_color, world_color, sun_towa
             ob.hide_render = True
     bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
     bpy.ops.object.shade_smooth()
-    bpy.context.object.data.materials.append(_diffuse("Ball", ball_color))
+    bpy.context.object.data.materials.append(ball_material)
     bpy.ops.mesh.primitive_plane_add(size=2000.0, location=(0.0, 0.0, -1.0))
     bpy.context.object.data.materials.append(_diffuse("Floor", floor_color))
     scene.render.engine = 'CYCLES'
@@ -83,6 +97,7 @@ def ball_over_floor(S, mod, size, ball_color, floor_color, world_color, sun_towa
     c.max_bounces, c.diffuse_bounces, c.glossy_bounces = bounces
     c.transmission_bounces = c.volume_bounces = 0
     c.sample_clamp_direct = c.sample_clamp_indirect = 0.0  # no clamping: unbiased, as Unbound
+    c.blur_glossy = 0.0  # Filter Glossy would roughen glossy lobes after a diffuse bounce
     c.filter_width = 0.01  # every sample at the pixel centre
     renders["cycles"] = _rgba(S.render_to_exr(scene, "cycles.exr"))
     np.savez(TMP / "gi.npz", **renders)
