@@ -27,8 +27,19 @@
  * 5. Pieces smaller than min_faces are removed; orbit trap, escape count and the estimate at the
  *    vertices are computed with the kernel's own arithmetic.
  *
+ * The quaternion Julia and Mandelbrot kinds (without deep zoom) take every sign, every bisection
+ * step and the vertex attributes from a float64 estimate (mesh_kernel.h, ub_mesh_estimate64):
+ * the float32 orbit strays from the float64 one near the set, and left 1.8% of the vertices
+ * inside the float64 surface at 256 cells; now each vertex is outside it and within a bracket of
+ * a point inside. The points are float32 (the lattice's, the bisection's midpoints), so a
+ * vertex's estimate is that of the point stored.
+ *
+ * Cancel: the caller's thread polls between chunks of every parallel loop and every 4096 items of
+ * every serial stretch (serial_poll); big buffers freed after a cancel are freed by a helper
+ * thread after the return (bury, reap). A cancel returns within milliseconds in every phase.
+ *
  * Deterministic: cells are sorted before triangulation and every value is a pure function of a
- * point, so the output is the same bytes for any thread count. */
+ * point, so the output is the same bytes for any thread count and ISA. */
 #include "mesh.h"
 
 #include "port.h"
@@ -61,6 +72,9 @@ typedef struct {
     const ub_object *o;
     const ub_mesh_options *opt;
     int use_avx2, threads;
+    /* The quaternion kinds (without deep zoom, whose estimate is double already): every sign and
+     * every vertex from the float64 estimate (mesh_kernel.h, ub_mesh_estimate64). */
+    int float64;
     double origin[3], h, R, center[3], eps;
     float epsf;
     int64_t L; /* cells per axis; lattice points 0..L */
@@ -69,6 +83,9 @@ typedef struct {
     volatile int cancel;
     double next_poll, progress_lo, progress_hi;
     int64_t evaluations; /* atomic */
+    /* Large buffers freed after a cancel, to be given back by a helper thread (bury, reap). */
+    void *buried[64];
+    int buried_count;
 } mctx;
 
 static void *m_realloc(mctx *c, void *p, size_t old, size_t size)
@@ -83,10 +100,65 @@ static void *m_realloc(mctx *c, void *p, size_t old, size_t size)
         c->peak = c->bytes;
     return q;
 }
+/* Once cancelled, a buffer of a megabyte or more is not freed here but buried: handing a gigabyte
+ * back to the system takes 50 ms (the pages are unmapped one by one), 0.2 s at 2048 cells, and
+ * the cancelled extraction should return at once. */
+#define BURY_BYTES ((size_t)1 << 20)
+static void bury(mctx *c, void *p, size_t size)
+{
+    if (p && size >= BURY_BYTES && c->buried_count < (int)(sizeof c->buried / sizeof c->buried[0]))
+        c->buried[c->buried_count++] = p;
+    else
+        free(p);
+}
 static void m_free(mctx *c, void *p, size_t size)
 {
-    free(p);
+    if (c->cancel)
+        bury(c, p, size);
+    else
+        free(p);
     c->bytes -= size;
+}
+
+#define REAP_DELAY_MS 200
+typedef struct {
+    void *buffers[64];
+    int count;
+} grave;
+
+UB_THREAD_ENTRY(reap_grave, arg)
+{
+    grave *g = arg;
+    ub_sleep_ms(REAP_DELAY_MS);
+    for (int i = 0; i < g->count; i++)
+        free(g->buffers[i]);
+    free(g);
+    UB_THREAD_RETURN;
+}
+
+/* The buried buffers go back to the system on a thread of their own, REAP_DELAY_MS after the
+ * return: unmapping holds the process's memory-map lock, and freeing at once made the caller's
+ * own page faults wait for it (a cancel at 1024 cells returned 40 ms late). Here if no thread can
+ * be made. */
+static void reap(mctx *c)
+{
+    if (!c->buried_count)
+        return;
+    grave *g = malloc(sizeof *g);
+    ub_thread t;
+    if (g) {
+        g->count = c->buried_count;
+        memcpy(g->buffers, c->buried, sizeof g->buffers);
+        if (ub_thread_start(&t, reap_grave, g)) {
+            ub_thread_detach(t);
+            c->buried_count = 0;
+            return;
+        }
+        free(g);
+    }
+    for (int i = 0; i < c->buried_count; i++)
+        free(c->buried[i]);
+    c->buried_count = 0;
 }
 
 /* A growable array of fixed-size items. */
@@ -124,6 +196,22 @@ static void vec_free(mctx *c, vec *v)
 #define VEC(type) ((vec){NULL, 0, 0, sizeof(type)})
 #define AT(v, type, i) (((type *)(v).data)[i])
 
+static inline int serial_poll(mctx *c, size_t i);
+
+/* Sets n bytes to value in pieces, polling between them: the hash maps of a 2048-cell extraction
+ * are gigabytes, and touching them for the first time takes a good part of a second. Returns
+ * whether to stop (cancelled). */
+static int chunked_memset(mctx *c, void *p, int value, size_t n)
+{
+    const size_t piece = (size_t)1 << 22;
+    for (size_t at = 0; at < n; at += piece) {
+        if (serial_poll(c, 0))
+            return -1;
+        memset((char *)p + at, value, n - at < piece ? n - at : piece);
+    }
+    return 0;
+}
+
 /* Open addressing, linear probing: u64 key -> u32 value. */
 typedef struct {
     uint64_t *keys;
@@ -141,16 +229,21 @@ static inline size_t hash64(uint64_t x)
     return (size_t)x;
 }
 
+/* -1: out of memory or cancelled, and m is an empty map (hmap_free may still be called). */
 static int hmap_init(mctx *c, hmap *m, size_t cap)
 {
     m->cap = cap;
     m->count = 0;
     m->keys = m_realloc(c, NULL, 0, cap * sizeof(uint64_t));
     m->vals = m_realloc(c, NULL, 0, cap * sizeof(uint32_t));
-    if (!m->keys || !m->vals)
-        return -1;
-    memset(m->keys, 0xff, cap * sizeof(uint64_t));
-    return 0;
+    if (m->keys && m->vals && !chunked_memset(c, m->keys, 0xff, cap * sizeof(uint64_t)))
+        return 0;
+    m_free(c, m->keys, m->keys ? cap * sizeof(uint64_t) : 0);
+    m_free(c, m->vals, m->vals ? cap * sizeof(uint32_t) : 0);
+    m->keys = NULL;
+    m->vals = NULL;
+    m->cap = 0;
+    return -1;
 }
 static void hmap_free(mctx *c, hmap *m)
 {
@@ -173,6 +266,7 @@ static inline uint32_t *hmap_get(const hmap *m, uint64_t key)
         i = (i + 1) & mask;
     }
 }
+/* Doubles the map; -1: out of memory or cancelled (the map is left as it was). */
 static int hmap_grow(mctx *c, hmap *m)
 {
     hmap n;
@@ -180,6 +274,10 @@ static int hmap_grow(mctx *c, hmap *m)
         return -1;
     size_t mask = n.cap - 1;
     for (size_t s = 0; s < m->cap; s++) {
+        if (serial_poll(c, s)) { /* a rehash of tens of millions of keys takes a second */
+            hmap_free(c, &n);
+            return -1;
+        }
         uint64_t k = m->keys[s];
         if (k == EMPTY_KEY)
             continue;
@@ -281,6 +379,15 @@ static void parallel_for(mctx *c, size_t count, size_t chunk, range_fn fn, void 
             ub_thread_join(th[i]);
 }
 
+/* Items a chunk of a parallel loop, for `items` at the default 16 iterations: fewer for more
+ * iterations, since a chunk is what a cancel waits for (the UI allows 10000 iterations, and a
+ * point inside the set runs them all). Chunks change no result: each item is its own. */
+static size_t chunk_items(const mctx *c, size_t items)
+{
+    size_t scaled = items * 16 / (size_t)(c->o->max_iterations > 16 ? c->o->max_iterations : 16);
+    return scaled > 16 ? scaled : 16;
+}
+
 /* A poll between phases (no parallel loop running). */
 static void poll_now(mctx *c, double f)
 {
@@ -292,12 +399,12 @@ static void poll_now(mctx *c, double f)
 }
 
 /* A poll inside a long serial stretch of the caller's thread (no parallel loop running), looked at
- * every 16384 items: the flood fill's per-wave bookkeeping at resolution 1024 runs for seconds
- * between its parallel loops, and a cancel must stop within the poll interval there too. Returns
- * whether to stop. */
+ * every 4096 items (a few milliseconds of hash-map work at most): the flood fill's per-wave
+ * bookkeeping, hash-map growth, the sort and the crumbs run for seconds between parallel loops at
+ * 2048 cells, and a cancel must stop within the poll interval there too. Returns whether to stop. */
 static inline int serial_poll(mctx *c, size_t i)
 {
-    if ((i & 16383) == 0 && c->opt->poll && ub_monotonic_seconds() >= c->next_poll)
+    if ((i & 4095) == 0 && c->opt->poll && ub_monotonic_seconds() >= c->next_poll)
         poll_now(c, c->progress_hi); /* where the last parallel loop's progress ended */
     return c->cancel;
 }
@@ -336,10 +443,20 @@ static void classify(mctx *c, const double *pts, size_t n, uint8_t *inside, floa
             xyz[3 * m + a] = (float)pts[3 * i + a];
         idx[m++] = i;
     }
-    if (m) {
-        (c->use_avx2 ? ub_estimate_avx2 : ub_estimate_portable)(c->o, xyz, m, est, it);
-        __atomic_add_fetch(&c->evaluations, (int64_t)m, __ATOMIC_RELAXED);
+    if (!m)
+        return;
+    __atomic_add_fetch(&c->evaluations, (int64_t)m, __ATOMIC_RELAXED);
+    if (c->float64) {
+        double est64[1024];
+        (c->use_avx2 ? ub_mesh_estimate64_avx2 : ub_mesh_estimate64_portable)(c->o, xyz, m, est64, NULL, NULL);
+        for (size_t q = 0; q < m; q++) {
+            inside[idx[q]] = est64[q] < c->eps;
+            if (est_out)
+                est_out[idx[q]] = (float)est64[q];
+        }
+        return;
     }
+    (c->use_avx2 ? ub_estimate_avx2 : ub_estimate_portable)(c->o, xyz, m, est, it);
     for (size_t q = 0; q < m; q++) {
         inside[idx[q]] = est[q] < c->epsf;
         if (est_out)
@@ -473,12 +590,12 @@ static inline uint32_t face_mask(int axis, int side)
 
 static int track(mctx *c, vec *seeds, vec *active, int64_t *visited_count)
 {
-    hmap corners, visited;
-    if (hmap_init(c, &corners, 1 << 16) || hmap_init(c, &visited, 1 << 16))
-        return -1;
+    hmap corners = {0}, visited = {0};
     vec frontier = VEC(uint64_t), next = VEC(uint64_t), todo = VEC(uint64_t), flags = VEC(uint8_t);
     int rc = -1;
     uint32_t *slot;
+    if (hmap_init(c, &corners, 1 << 16) || hmap_init(c, &visited, 1 << 16))
+        goto out;
     for (size_t i = 0; i < seeds->n; i++) {
         uint64_t k = AT(*seeds, uint64_t, i);
         int r = hmap_put(c, &visited, k, 0, &slot);
@@ -519,12 +636,14 @@ static int track(mctx *c, vec *seeds, vec *active, int64_t *visited_count)
         eval_job ej = {(const uint64_t *)todo.data, (uint8_t *)flags.data};
         c->progress_lo = 0.15 + 0.45 * (1.0 - 1.0 / (1.0 + wave / 8.0));
         c->progress_hi = 0.15 + 0.45 * (1.0 - 1.0 / (1.0 + (wave + 1) / 8.0));
-        parallel_for(c, todo.n, 4096, eval_range, &ej);
+        parallel_for(c, todo.n, chunk_items(c, 4096), eval_range, &ej);
         if (c->cancel)
             break;
         /* The values are now the inside flags. */
-        for (size_t i = 0; i < todo.n; i++)
+        for (size_t i = 0; i < todo.n && !serial_poll(c, i); i++)
             *hmap_get(&corners, AT(todo, uint64_t, i)) = 0x80000000u | AT(flags, uint8_t, i);
+        if (c->cancel)
+            break;
         next.n = 0;
         for (size_t i = 0; i < frontier.n && !serial_poll(c, i); i++) {
             uint64_t cell = AT(frontier, uint64_t, i);
@@ -578,18 +697,19 @@ out:
     return rc;
 }
 
-/* LSD radix sort of the cells by key (11-bit digits over the 60 key bits). */
+/* LSD radix sort of the cells by key (11-bit digits over the 60 key bits), polling as it goes (a
+ * third of a second at 1024 cells, serial). -1: out of memory or cancelled (cells unsorted). */
 static int sort_cells(mctx *c, vec *cells)
 {
     size_t n = cells->n;
-    cell_rec *a = (cell_rec *)cells->data;
-    cell_rec *b = m_realloc(c, NULL, 0, n * sizeof(cell_rec));
-    if (!b)
+    cell_rec *a = (cell_rec *)cells->data, *spare = m_realloc(c, NULL, 0, n * sizeof(cell_rec)), *b = spare;
+    if (!spare)
         return -1;
     size_t count[2048];
-    for (int shift = 0; shift < 3 * KEY_BITS; shift += 11) {
+    int rc = 0;
+    for (int shift = 0; shift < 3 * KEY_BITS && rc == 0; shift += 11) {
         memset(count, 0, sizeof count);
-        for (size_t i = 0; i < n; i++)
+        for (size_t i = 0; i < n && !serial_poll(c, i); i++)
             count[(a[i].key >> shift) & 2047]++;
         size_t sum = 0;
         for (int d = 0; d < 2048; d++) {
@@ -597,15 +717,19 @@ static int sort_cells(mctx *c, vec *cells)
             count[d] = sum;
             sum += t;
         }
-        for (size_t i = 0; i < n; i++)
+        for (size_t i = 0; i < n && !c->cancel; i++) {
+            serial_poll(c, i);
             b[count[(a[i].key >> shift) & 2047]++] = a[i];
+        }
         cell_rec *t = a;
         a = b;
         b = t;
+        rc = c->cancel ? -1 : 0;
     }
-    /* Six passes: the sorted data is back in the original buffer. */
-    m_free(c, b, n * sizeof(cell_rec));
-    return 0;
+    /* Six passes: the sorted data is back in the original buffer; the spare one goes (cancelled
+     * half way, the cells' order no longer matters). */
+    m_free(c, spare, n * sizeof(cell_rec));
+    return rc;
 }
 
 /* ---------------------------------------------------------------- 3. marching tetrahedra */
@@ -672,7 +796,7 @@ static int flush_edges(mctx *c, vec *pend, size_t *base, vec *verts, double done
     bisect_job bj = {(const edge_rec *)pend->data, (float *)verts->data + 3 * *base};
     c->progress_lo = c->progress_hi;
     c->progress_hi = 0.62 + 0.33 * done;
-    parallel_for(c, pend->n, 1024, bisect_range, &bj);
+    parallel_for(c, pend->n, chunk_items(c, 1024), bisect_range, &bj);
     *base += pend->n;
     verts->n = 3 * *base;
     pend->n = 0;
@@ -702,6 +826,8 @@ static int triangulate(mctx *c, const vec *cells, vec *verts, vec *faces)
     static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
     int rc = -1;
     for (size_t ci = 0; ci < cells->n; ci++) {
+        if (serial_poll(c, ci)) /* a flush comes every 2^18 edges only: a tenth of a second loaded */
+            goto out;
         const cell_rec *cr = &AT(*cells, cell_rec, ci);
         int64_t k = (int64_t)(cr->key >> (2 * KEY_BITS));
         if (k != layer) {
@@ -833,6 +959,17 @@ typedef struct {
 static void attr_range(mctx *c, void *arg, size_t lo, size_t hi)
 {
     attr_job *aj = arg;
+    if (c->float64) {
+        double est64[1024];
+        for (size_t b = lo; b < hi; b += 1024) {
+            size_t n = hi - b < 1024 ? hi - b : 1024;
+            (c->use_avx2 ? ub_mesh_estimate64_avx2 : ub_mesh_estimate64_portable)(
+                c->o, aj->vertices + 3 * b, n, est64, aj->iterations + b, aj->trap + b);
+            for (size_t i = 0; i < n; i++)
+                aj->estimate[b + i] = (float)est64[i];
+        }
+        return;
+    }
     (c->use_avx2 ? ub_mesh_attributes_avx2 : ub_mesh_attributes_portable)(
         c->o, aj->vertices + 3 * lo, hi - lo, aj->estimate + lo, aj->iterations + lo, aj->trap + lo);
 }
@@ -848,24 +985,23 @@ static uint32_t uf_find(uint32_t *parent, uint32_t x)
     return x;
 }
 
-/* Removes pieces with fewer than min_faces faces; counts the pieces. Compacts in order. */
+/* Removes pieces with fewer than min_faces faces; counts the pieces. Compacts in order. Serial,
+ * half a second at 1024 cells: it polls. -1: out of memory or cancelled. */
 static int remove_crumbs(mctx *c, vec *faces, float **vertices, size_t *nv, int64_t min_faces, int64_t *pieces,
                          int64_t *removed)
 {
     size_t v = *nv, nf = faces->n / 3;
+    int rc = -1;
     uint32_t *parent = m_realloc(c, NULL, 0, v * sizeof(uint32_t));
     uint32_t *size = m_realloc(c, NULL, 0, v * sizeof(uint32_t));
-    if (!parent || !size) {
-        m_free(c, parent, v * sizeof(uint32_t));
-        m_free(c, size, v * sizeof(uint32_t));
-        return -1;
-    }
+    if (!parent || !size)
+        goto out;
     int32_t *f = (int32_t *)faces->data;
-    for (size_t i = 0; i < v; i++) {
+    for (size_t i = 0; i < v && !serial_poll(c, i); i++) {
         parent[i] = (uint32_t)i;
         size[i] = 0;
     }
-    for (size_t t = 0; t < nf; t++) {
+    for (size_t t = 0; t < nf && !serial_poll(c, t); t++) {
         uint32_t a = uf_find(parent, (uint32_t)f[3 * t]);
         for (int k = 1; k < 3; k++) {
             uint32_t b = uf_find(parent, (uint32_t)f[3 * t + k]);
@@ -879,29 +1015,35 @@ static int remove_crumbs(mctx *c, vec *faces, float **vertices, size_t *nv, int6
             }
         }
     }
-    for (size_t t = 0; t < nf; t++)
+    for (size_t t = 0; t < nf && !serial_poll(c, t); t++)
         size[uf_find(parent, (uint32_t)f[3 * t])]++;
+    if (c->cancel)
+        goto out;
     int64_t np = 0, nr = 0;
-    for (size_t i = 0; i < v; i++)
+    for (size_t i = 0; i < v && !serial_poll(c, i); i++)
         if (parent[i] == i && size[i] > 0) {
             np++;
             if ((int64_t)size[i] < min_faces)
                 nr++;
         }
+    if (c->cancel)
+        goto out;
     *pieces = np;
     *removed = nr;
     if (nr) {
         /* New vertex numbers in the old order; size[] becomes the map (UINT32_MAX: dropped). */
         uint32_t *map = parent; /* reuse after reading roots into size[] */
-        for (size_t i = 0; i < v; i++) {
+        for (size_t i = 0; i < v && !serial_poll(c, i); i++) {
             uint32_t r = uf_find(parent, (uint32_t)i);
             /* store keep flag in the high bit of size of vertex i (temporary) */
             size[i] = (size[r] & 0x7fffffffu) >= (uint64_t)min_faces ? (size[i] | 0x80000000u) : (size[i] & 0x7fffffffu);
         }
+        if (c->cancel)
+            goto out;
         /* size[i] >> 31 now tells whether vertex i is kept */
         uint32_t next = 0;
         float *vv = *vertices;
-        for (size_t i = 0; i < v; i++) {
+        for (size_t i = 0; i < v && !serial_poll(c, i); i++) {
             if (size[i] >> 31) {
                 map[i] = next;
                 for (int a = 0; a < 3; a++)
@@ -911,19 +1053,23 @@ static int remove_crumbs(mctx *c, vec *faces, float **vertices, size_t *nv, int6
                 map[i] = UINT32_MAX;
         }
         size_t out = 0;
-        for (size_t t = 0; t < nf; t++) {
+        for (size_t t = 0; t < nf && !serial_poll(c, t); t++) {
             if (map[f[3 * t]] == UINT32_MAX)
                 continue;
             for (int k = 0; k < 3; k++)
                 f[3 * out + k] = (int32_t)map[f[3 * t + k]];
             out++;
         }
+        if (c->cancel) /* compacted half way: the caller discards it all */
+            goto out;
         faces->n = 3 * out;
         *nv = next;
     }
-    m_free(c, parent, v * sizeof(uint32_t));
-    m_free(c, size, v * sizeof(uint32_t));
-    return 0;
+    rc = 0;
+out:
+    m_free(c, parent, parent ? v * sizeof(uint32_t) : 0);
+    m_free(c, size, size ? v * sizeof(uint32_t) : 0);
+    return rc;
 }
 
 /* ---------------------------------------------------------------- entry */
@@ -951,6 +1097,7 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     c.o = o;
     c.opt = opt;
     c.use_avx2 = opt->use_avx2;
+    c.float64 = (o->kind == UB_KIND_QUATERNION_JULIA || o->kind == UB_KIND_QUATERNION_MANDELBROT) && !o->zoom.enabled;
     c.threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
     if (c.threads > UB_MAX_THREADS)
         c.threads = UB_MAX_THREADS;
@@ -983,7 +1130,10 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     if (spacing < (opt->resolution + 255) / 256)
         spacing = (opt->resolution + 255) / 256;
     int64_t per_axis = (c.L - 2 + spacing - 1) / spacing;
-    size_t lines = (size_t)(3 * per_axis * per_axis), chunk = 64;
+    /* Eight lines a chunk at 16 iterations, down to one at 128 or more: a chunk is what a cancel
+     * waits for, and a line crosses thousands of cells at the operator's 8192; the seeds come out
+     * in line order whatever the chunk. */
+    size_t lines = (size_t)(3 * per_axis * per_axis), chunk = chunk_items(&c, 128) / 16;
     size_t nchunks = (lines + chunk - 1) / chunk;
     vec *chunks = m_realloc(&c, NULL, 0, nchunks * sizeof(vec));
     if (!chunks)
@@ -1019,6 +1169,7 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
         goto cancelled;
     out->active_cells = (int64_t)cells.n;
     out->phase_seconds[1] = ub_monotonic_seconds() - t0;
+    c.progress_hi = 0.61; /* what the sort's polls report: past every wave's (< 0.6) */
     if (sort_cells(&c, &cells))
         goto oom;
     poll_now(&c, 0.62);
@@ -1039,6 +1190,7 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
     verts = (float *)vv.data;
 
     /* 5. crumbs, attributes */
+    c.progress_hi = 0.955; /* what the crumbs' polls report */
     if (remove_crumbs(&c, &faces, &verts, &nv, opt->min_faces, &out->pieces, &out->pieces_removed))
         goto oom;
     out->vertex_count = (int64_t)nv;
@@ -1058,14 +1210,16 @@ const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_m
         c.peak = c.bytes;
     out->phase_seconds[4] = ub_monotonic_seconds() - t0;
     attr_job aj = {out->vertices, out->trap, out->iterations, out->estimate};
-    c.progress_lo = 0.95;
+    c.progress_lo = 0.96;
     c.progress_hi = 1.0;
-    parallel_for(&c, nv, 4096, attr_range, &aj);
+    parallel_for(&c, nv, chunk_items(&c, 4096), attr_range, &aj);
     if (c.cancel)
         goto cancelled;
     goto done;
 
 oom:
+    if (c.cancel) /* the serial stretches stop half way and return like a failure when cancelled */
+        goto cancelled;
     err = "out of memory while extracting the mesh: lower the resolution";
     goto done;
 cancelled:
@@ -1076,9 +1230,21 @@ done:
     vec_free(&c, &faces);
     vec_free(&c, &vv);
     if (err || out->cancelled) {
+        if (out->cancelled) { /* the result's buffers, where handed over already */
+            size_t per_vertex = (size_t)out->vertex_count * sizeof(float);
+            bury(&c, out->vertices, 3 * per_vertex);
+            bury(&c, out->faces, 3 * (size_t)out->face_count * sizeof(int32_t));
+            bury(&c, out->trap, per_vertex);
+            bury(&c, out->iterations, per_vertex);
+            bury(&c, out->estimate, per_vertex);
+            out->vertices = NULL;
+            out->faces = NULL;
+            out->trap = out->iterations = out->estimate = NULL;
+        }
         ub_mesh_free(out);
         out->vertex_count = out->face_count = 0;
     }
+    reap(&c);
     ub_fp_leave(fp);
     out->evaluations = c.evaluations;
     out->peak_bytes = c.peak;

@@ -34,6 +34,10 @@ typedef struct {
 
 void ub_mesh_attributes_avx2(const ub_object *, const float *, size_t, float *, float *, float *);
 void ub_mesh_attributes_portable(const ub_object *, const float *, size_t, float *, float *, float *);
+/* The quaternion kinds' estimate in float64 at float32 points (mesh_kernel.h): estimate, and
+ * escape count and orbit trap where not NULL. */
+void ub_mesh_estimate64_avx2(const ub_object *, const float *, size_t, double *, float *, float *);
+void ub_mesh_estimate64_portable(const ub_object *, const float *, size_t, double *, float *, float *);
 
 /* Returns NULL (result filled; free with ub_mesh_free) or an error message. */
 const char *ub_extract_mesh(const ub_object *o, const ub_mesh_options *opt, ub_mesh_result *out);

@@ -27,4 +27,8 @@ void ub_mesh_attributes_avx2(const ub_object *o, const float *x, size_t n, float
 {
     ub_mesh_attributes_portable(o, x, n, e, i, t);
 }
+void ub_mesh_estimate64_avx2(const ub_object *o, const float *x, size_t n, double *e, float *i, float *t)
+{
+    ub_mesh_estimate64_portable(o, x, n, e, i, t);
+}
 #endif

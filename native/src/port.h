@@ -45,6 +45,9 @@ static inline void ub_thread_join(ub_thread t)
     WaitForSingleObject(t, INFINITE);
     CloseHandle(t);
 }
+/* The thread runs on and cleans up after itself; nobody joins it. */
+static inline void ub_thread_detach(ub_thread t) { CloseHandle(t); }
+static inline void ub_sleep_ms(int ms) { Sleep((DWORD)ms); }
 static inline void ub_mutex_init(ub_mutex *m) { InitializeSRWLock(m); }
 static inline void ub_mutex_destroy(ub_mutex *m) { (void)m; }
 static inline void ub_mutex_lock(ub_mutex *m) { AcquireSRWLockExclusive(m); }
@@ -74,6 +77,12 @@ static inline int ub_thread_start(ub_thread *t, ub_thread_entry entry, void *arg
     return pthread_create(t, NULL, entry, arg) == 0;
 }
 static inline void ub_thread_join(ub_thread t) { pthread_join(t, NULL); }
+static inline void ub_thread_detach(ub_thread t) { pthread_detach(t); }
+static inline void ub_sleep_ms(int ms)
+{
+    struct timespec ts = {ms / 1000, (long)(ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
 static inline void ub_mutex_init(ub_mutex *m) { pthread_mutex_init(m, NULL); }
 static inline void ub_mutex_destroy(ub_mutex *m) { pthread_mutex_destroy(m); }
 static inline void ub_mutex_lock(ub_mutex *m) { pthread_mutex_lock(m); }

@@ -5,7 +5,8 @@
     m.trap, m.iterations, m.estimate (n,) float32, m.stats (dict)
 
 The surface is {estimate = epsilon} (epsilon 0: a 64th of a cell), closed and manifold (each
-edge in exactly two faces); see native/src/mesh.c for the method."""
+edge in exactly two faces); see native/src/mesh.c for the method. The arrays are views of the
+core's own buffers (extract_mesh returns read-only memoryviews; no copy is made)."""
 from ._native import extract_mesh  # noqa: F401
 
 
@@ -20,7 +21,7 @@ class Mesh:
         self.trap = np.frombuffer(result["trap"], np.float32)
         self.iterations = np.frombuffer(result["iterations"], np.float32)
         self.estimate = np.frombuffer(result["estimate"], np.float32)
-        self.stats = {k: v for k, v in result.items() if not isinstance(v, bytes)}
+        self.stats = {k: v for k, v in result.items() if not isinstance(v, memoryview)}
 
 
 def extract(obj, **keywords):

@@ -2,10 +2,11 @@
 the default Julia set against the float64 reference, determinism over thread counts, crumbs,
 progress and cancel."""
 import threading
+import time
 
 import numpy as np
 import pytest
-from conftest import FOREIGN, KIND_OBJECTS, SANITIZED, uc
+from conftest import FOREIGN, KIND_OBJECTS, SANITIZED, TIMING_UNRELIABLE, CancelClock, assert_cancel_latencies, uc
 
 from reference import qjulia64
 
@@ -100,26 +101,56 @@ def test_same_bytes_for_any_thread_count():
         assert all(portable[k] == runs[0][k] for k in ("vertices", "faces", "trap", "iterations"))
 
 
-@pytest.mark.skipif(SANITIZED or FOREIGN, reason="20 M vertices and a 5 GB float64 check: native Linux only "
-                                                "(the mesher's bits are the same everywhere)")
+DEFAULT_MU = (-0.2, 0.8, 0.0, 0.0)  # the default Julia set: 16 iterations, bailout 4
+
+
+def assert_on_the_float64_surface(m, sample, seed=1):
+    """The quaternion kinds' vertices lie on the float64 surface (issue 20): a sample of vertices,
+    each outside by the float64 reference estimate (reference/qjulia64.py, numpy, independent of
+    the core) and each with a point inside (estimate < epsilon) within delta = cell / 2^12 along
+    one of the three axes, i.e. within four bisection brackets (cell / 2^14) of the boundary of
+    {estimate < epsilon}. Returns |d64 - epsilon| / cell at the sample.
+
+    Why not |d64 - epsilon| itself: with 16 iterations most of that boundary (72% of the vertices
+    at 256 cells) is where the orbit escapes at the 16th and last iteration, and the estimate
+    jumps there from 0 (no escape) to well above epsilon (up to 50 epsilon measured): the vertex
+    is at the jump, d64 - epsilon is what the jump leaves over, not a distance. The float32
+    mesher (before) left 1.8% of the vertices inside the float64 surface at 256 cells."""
+    eps, h = m.stats["epsilon"], m.stats["cell_size"]
+    rng = np.random.default_rng(seed)
+    v = m.vertices[rng.choice(len(m.vertices), size=min(sample, len(m.vertices)), replace=False)].astype(np.float64)
+
+    def d64(points):
+        return qjulia64.distance_estimate(qjulia64.slice_points(points), DEFAULT_MU, 16, 4.0)[0]
+
+    at = d64(v)
+    inside_near = np.zeros(len(v), bool)
+    for axis in range(3):
+        for side in (-1.0, 1.0):
+            step = np.zeros(3)
+            step[axis] = side * h / 2**12
+            inside_near |= d64(v + step) < eps
+    assert (at >= eps).all(), ("vertices inside the float64 surface", np.mean(at < eps))
+    assert inside_near.all(), ("vertices farther than cell / 2^12 from the float64 surface", np.mean(~inside_near))
+    return np.abs(at - eps) / h
+
+
+def test_default_julia_vertices_on_the_float64_surface():
+    """At 256 cells (20 000 vertices checked): see assert_on_the_float64_surface."""
+    m = uc.mesh.extract({}, resolution=256)
+    assert_on_the_float64_surface(m, 20000)
+    assert watertight(m.faces)
+
+
+@pytest.mark.skipif(SANITIZED or FOREIGN, reason="20 M vertices: native Linux only (the mesher's bits are "
+                                                "the same everywhere)")
 def test_default_julia_1024_on_the_float64_surface_and_watertight():
     """The default Julia set (mu = (-0.2, 0.8, 0, 0), 16 iterations) at 1024 cells across: closed
-    and oriented manifold (watertight); the float64 reference estimate at a sample of 200 000
-    vertices against the surface {estimate = epsilon} (epsilon = cell / 64 = 4.7e-5). The vertices
-    lie on the float32 kernel's surface to float precision (estimate >= epsilon, bracket < cell /
-    2^14), but the float32 orbit itself departs from float64 near the set (16 squarings amplify
-    its rounding): measured |d64 - epsilon| median 1.6e-4 (0.05 cell), 99% 5.1e-3, max 1.0e-2
-    (3.4 cells). Asserted: median <= cell / 10, 99% <= 2 cells, max <= 4 cells."""
+    and oriented manifold (watertight), and 200 000 vertices on the float64 surface
+    (assert_on_the_float64_surface: outside it, and within cell / 2^12 of a point inside)."""
     m = uc.mesh.extract({}, resolution=1024)
-    eps = m.stats["epsilon"]
     assert watertight(m.faces)
-    rng = np.random.default_rng(1)
-    idx = rng.choice(len(m.vertices), size=min(200000, len(m.vertices)), replace=False)
-    d64, _ = qjulia64.distance_estimate(qjulia64.slice_points(m.vertices[idx]), (-0.2, 0.8, 0.0, 0.0), 16, 4.0)
-    err = np.abs(d64 - eps)
-    h = m.stats["cell_size"]
-    q = np.quantile(err, [0.5, 0.99, 1.0])
-    assert q[0] <= h / 10 and q[1] <= 2 * h and q[2] <= 4 * h, (q, h, eps)
+    assert_on_the_float64_surface(m, 200000)
 
 
 def test_crumbs_are_removed_below_min_faces():
@@ -157,3 +188,43 @@ def test_bad_arguments():
         uc.extract_mesh({"mu": (float("nan"), 0, 0, 0)})
     with pytest.raises(TypeError):
         uc.extract_mesh({}, progress=3)
+
+
+# Where a 1024-cell extraction of the default Julia set is cancelled: (phase, the progress fraction
+# whose first report starts a timer, the timer's seconds). What the polls report: the seeds < 0.15
+# <= the tracking waves < 0.6, the sort 0.61, triangles and vertex bisection 0.62 - 0.95, the
+# crumbs 0.955, the vertex attributes 0.96 - 1 (and then the output, without a copy).
+CANCEL_MOMENTS = (("seeding", 0.0, 0.05), ("tracking, first waves", 0.15, 0.0), ("tracking, later waves", 0.35, 0.0),
+                  ("sort", 0.61, 0.0), ("triangles and bisection", 0.7, 0.0), ("crumbs", 0.955, 0.0),
+                  ("attributes and output", 0.99, 0.0))
+
+
+@pytest.mark.skipif(TIMING_UNRELIABLE or FOREIGN, reason="timing: the sanitizers or an emulated CPU slow the core "
+                                                        "several-fold")
+@pytest.mark.parametrize("phase,fraction,delay", CANCEL_MOMENTS, ids=[m[0] for m in CANCEL_MOMENTS])
+def test_cancel_1024_returns_within_100_ms_in_every_phase(phase, fraction, delay):
+    """Issue 20: a cancel stops a 1024-cell extraction within 100 ms whatever it is doing (polls
+    in every serial stretch: hash-map growth, the wave bookkeeping, the sort, the crumbs; big
+    buffers freed after the return). The cancel comes from another thread (a timer setting the
+    threading.Event, as the operator's modal loop does), so the wait for the next poll counts.
+    Held to conftest's budget: process CPU time from the cancel to the return <= 100 ms
+    (measured 0.2 - 8 ms), wall <= 1 s (the margin for a loaded 2-core machine)."""
+    cancel, clock, started = threading.Event(), CancelClock(), []
+
+    def fire():
+        clock.mark()
+        cancel.set()
+
+    def progress(f):
+        if not started and f >= fraction:
+            started.append(threading.Timer(delay, fire))
+            started[0].start()
+        return False
+
+    m = uc.mesh.extract({}, resolution=1024, threads=2, progress=progress, cancel=cancel, poll_interval=0.002)
+    latency = clock.latency() if clock.marked else None
+    for timer in started:
+        timer.join()
+    assert latency is not None, "the extraction ended before the cancel (%s)" % phase
+    assert m.stats["cancelled"] and len(m.vertices) == 0, m.stats
+    assert_cancel_latencies([latency], "extract_mesh 1024, %s" % phase)

@@ -51,24 +51,43 @@ def S_tmp():
     return pathlib.Path(os.environ["UNBOUND_TEST_TMP"])
 
 
-def principled_grid_matches_cycles(S, mod, grid, size, samples, segments):
+def _uniform_world(scene, radiance):
+    """A World of one colour: the background and, in both engines, a light."""
+    world = bpy.data.worlds.new("Uniform")
+    world.use_nodes = True
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = tuple(radiance) + (1.0,)
+    background.inputs["Strength"].default_value = 1.0
+    scene.world = world
+
+
+def principled_grid_matches_cycles(S, mod, grid, size, samples, segments, unbound_samples=1, world=None,
+                                   world_samples=0):
     """A 3 x 3 grid of unit balls, metallic by row and roughness by column, under one sun and a
-    black world: Cycles (smooth UV spheres, direct light only) and Unbound (mu = 0 fractals) with
-    the same materials, orthographic, one image each."""
+    black world (world None) or a uniform one of radiance `world`: Cycles (smooth UV spheres,
+    direct light only, `samples` per pixel; a box filter with a world) and Unbound (mu = 0 fractals
+    with analytic normals; `unbound_samples` x `world_samples` world-light pairs) with the same materials,
+    orthographic, one image each."""
     scene = S.empty_scene(size, size, "CYCLES")
     cam = S.add_camera(scene, location=(0.0, -10.0, 0.0), type='ORTHO', ortho_scale=3 * SPACING + 0.1)
     del cam
-    scene.render.film_transparent = True  # black background, alpha = coverage
+    scene.render.film_transparent = True  # black background, alpha = coverage (the world still lights)
     scene.view_settings.view_transform = 'Standard'
     scene.view_settings.look = 'None'
+    if world is not None:
+        _uniform_world(scene, world)
     c = scene.cycles
     c.device = 'CPU'
     c.samples = samples
     c.use_adaptive_sampling = False
     c.use_denoising = False
     c.seed = 7
-    c.filter_width = 0.01    # every sample at the pixel centre, where Unbound shoots its ray
-    c.max_bounces = 0        # direct light only: the light's own contribution through the BSDF
+    if world is None:
+        c.filter_width = 0.01  # every sample at the pixel centre, where Unbound's one sample is
+    else:
+        c.pixel_filter_type = 'BOX'  # Unbound's samples: Halton points over the pixel square
+        c.filter_width = 1.0
+    c.max_bounces = 0        # direct light only: the lights' own contribution through the BSDF
     c.blur_glossy = 0.0
     _sun(scene)
     spheres, materials = [], {}
@@ -87,8 +106,13 @@ def principled_grid_matches_cycles(S, mod, grid, size, samples, segments):
         sphere.hide_render = True
     scene.render.engine = 'UNBOUND'
     _unbound_lighting(scene)
+    scene.unbound.samples = unbound_samples
+    scene.unbound.world_samples = world_samples
     for (i, j), mat in materials.items():
-        ob = S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
+        # Analytic normals (the Jacobian's): eq. 15's central differences, with the default step
+        # 1e-3 t, tilt the ball's normals by 0.2 degrees, which moves a one-pixel highlight.
+        ob = S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4,
+                           normal_method='ANALYTIC')
         ob.location = ((j - 1) * SPACING, 0.0, (1 - i) * SPACING)
         ob.unbound.material = mat
     unbound = _rgba(S.render_to_exr(scene, "unbound.exr"))
