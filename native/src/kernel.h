@@ -617,7 +617,6 @@ static int add_background(const ub_scene *sc, int bounce, int alive, const ub_pa
     return hit_lanes;
 }
 
-
 /* ---- Global illumination (shading use_gi): at every hit, after the lights and the world
  * (next-event estimation), the path goes on in one direction drawn from the surface: mirrored
  * with the surface's reflectivity (a glossy bounce), else from its BSDF (bsdf.h: cosine for
