@@ -549,7 +549,8 @@ def light_description(light, matrix):
 # Scene.unbound properties that are shading keys of the same name.
 SHADING_KEYS = ("samples", "axle_light", "ambient", "shadows", "ao_strength", "ao_distance", "ao_samples",
                 "reflection_depth", "fog_density", "fog_color", "glow_strength", "glow_color", "use_sea",
-                "sea_height", "sea_wavelength", "sea_amplitude", "sea_color", "sea_reflectivity", "world_samples")
+                "sea_height", "sea_wavelength", "sea_amplitude", "sea_color", "sea_reflectivity", "world_samples",
+                "use_gi", "max_bounces", "diffuse_bounces", "glossy_bounces")
 MAX_LIGHTS = 64
 
 

@@ -352,6 +352,17 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
                                   max=4096, step=2)
     world_bake_samples: IntProperty(name="World Bake Samples", description="Cycles samples per texel of the "
                                     "World's map", default=16, min=1, max=4096)
+    # Light Paths (global illumination), named and limited as Cycles' Light Paths
+    use_gi: BoolProperty(name="Global Illumination", description="Path tracing: light bounces off every "
+                         "surface (the fractals, the sea), so surfaces light each other and colours bleed; "
+                         "the ambient term is off", default=False)
+    max_bounces: IntProperty(name="Total", description="Bounces of a path in all", default=12, min=0, max=1024,
+                             soft_max=32)
+    diffuse_bounces: IntProperty(name="Diffuse", description="Diffuse bounces of a path", default=4, min=0,
+                                 max=1024, soft_max=32)
+    glossy_bounces: IntProperty(name="Glossy", description="Glossy bounces of a path: a material's specular "
+                                "lobe and mirror reflections (with Global Illumination, instead of "
+                                "Reflections)", default=4, min=0, max=1024, soft_max=32)
     # Effects
     ao_strength: FloatProperty(name="AO Strength", description="Strength of the occlusion estimated from "
                                "the distance estimate (0: off)", default=0.0, min=0.0, max=1.0, subtype='FACTOR')

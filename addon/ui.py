@@ -416,7 +416,9 @@ class UNBOUND_PT_render_lighting(RenderSubPanel, bpy.types.Panel):
         layout.prop(s, "axle_light")
         layout.prop(s, "use_scene_lights")
         layout.prop(s, "shadows")
-        layout.prop(s, "ambient")
+        row = layout.row()
+        row.active = not s.use_gi  # global illumination has no ambient term
+        row.prop(s, "ambient")
         col = layout.column()
         col.prop(s, "use_world_light")
         sub = col.column()
@@ -424,6 +426,25 @@ class UNBOUND_PT_render_lighting(RenderSubPanel, bpy.types.Panel):
         sub.prop(s, "world_samples")
         sub.prop(s, "world_resolution")
         sub.prop(s, "world_bake_samples")
+
+
+class UNBOUND_PT_render_light_paths(RenderSubPanel, bpy.types.Panel):
+    """Cycles' Light Paths panel: global illumination and its bounce limits."""
+    bl_label = "Light Paths"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.unbound, "use_gi", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        s = context.scene.unbound
+        col = layout.column(heading="Max Bounces", align=True)
+        col.active = s.use_gi
+        col.prop(s, "max_bounces")
+        col.prop(s, "diffuse_bounces")
+        col.prop(s, "glossy_bounces")
 
 
 class UNBOUND_PT_render_effects(RenderSubPanel, bpy.types.Panel):
@@ -439,7 +460,9 @@ class UNBOUND_PT_render_effects(RenderSubPanel, bpy.types.Panel):
         sub.active = s.ao_strength > 0.0
         sub.prop(s, "ao_distance")
         sub.prop(s, "ao_samples")
-        layout.prop(s, "reflection_depth")
+        row = layout.row()
+        row.active = not s.use_gi  # with global illumination Light Paths > Glossy limits mirrors
+        row.prop(s, "reflection_depth")
         col = layout.column()
         col.prop(s, "fog_density")
         sub = col.column()
@@ -593,7 +616,8 @@ class UNBOUND_PT_passes(UnboundPanel, bpy.types.Panel):
 
 classes = (UNBOUND_UL_ifs_maps, UNBOUND_UL_kifs_planes, UNBOUND_UL_hybrid_steps, UNBOUND_PT_fractal_hint, UNBOUND_PT_fractal_hint_object, UNBOUND_PT_fractal,
            UNBOUND_PT_fractal_slice, UNBOUND_PT_fractal_zoom, UNBOUND_PT_fractal_quality, UNBOUND_PT_fractal_shading,
-           UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting, UNBOUND_PT_render_effects,
+           UNBOUND_PT_render, UNBOUND_PT_render_viewport, UNBOUND_PT_render_lighting,
+           UNBOUND_PT_render_light_paths, UNBOUND_PT_render_effects,
            UNBOUND_PT_render_sea, UNBOUND_PT_motion_blur, UNBOUND_PT_motion_blur_curve, UNBOUND_PT_performance,
            UNBOUND_PT_performance_threads, UNBOUND_PT_performance_kernel,
            UNBOUND_PT_world, UNBOUND_PT_camera_panorama, UNBOUND_PT_light, UNBOUND_PT_passes)

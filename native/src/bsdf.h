@@ -162,4 +162,130 @@ static void bsdf_eval(const ub_bsdf *b, const float n[3], const double wo[3], co
         out[c] += weight * b->base[c] * cos_i * M_1_PI;
 }
 
+/* ---- Sampling, for path tracing (kernel.h gi_bounce): the next direction is drawn from the
+ * diffuse lobe (cosine) or the GGX lobe (visible normals, Heitz 2018), chosen by their rough
+ * weights; its density is the mixture's, so any direction's throughput is bsdf_eval / density.
+ * Perfectly smooth lobes (alpha^2 <= 2e-10, which bsdf_eval treats as mirrors no light direction
+ * hits) are not sampled. Needs ub_cos and ub_sin (ubmath.h). */
+
+/* An orthonormal frame (t, s, n) about unit n (Duff et al. 2017). */
+static inline void bsdf_frame(const float n[3], double t[3], double s[3])
+{
+    double sign = n[2] >= 0.0f ? 1.0 : -1.0;
+    double a = -1.0 / (sign + n[2]), b = n[0] * n[1] * a;
+    t[0] = 1.0 + sign * n[0] * n[0] * a;
+    t[1] = sign * b;
+    t[2] = -sign * n[0];
+    s[0] = b;
+    s[1] = sign + n[1] * n[1] * a;
+    s[2] = -(double)n[1];
+}
+
+/* Probability of drawing from the GGX lobe: the specular layers' rough share of the light (the
+ * metal's whole weight, the dielectric's F0) against the diffuse base's (luminance of the base
+ * colour); between 0.1 and 0.9 where both lobes reflect, so neither is starved. */
+static inline double bsdf_specular_probability(const ub_bsdf *b)
+{
+    double alpha = b->roughness * b->roughness;
+    if (!(alpha * alpha > 2e-10))
+        return 0.0;
+    double specular = b->metallic + (1.0 - b->metallic) * (b->eta != 1.0 ? bsdf_clamp01(b->specular_f0) : 0.0);
+    double diffuse = (1.0 - b->metallic) * (0.2126 * b->base[0] + 0.7152 * b->base[1] + 0.0722 * b->base[2]);
+    if (!(specular > 0.0))
+        return 0.0;
+    if (!(diffuse > 0.0))
+        return 1.0;
+    double p = specular / (specular + diffuse);
+    return p < 0.1 ? 0.1 : (p > 0.9 ? 0.9 : p);
+}
+
+/* Density per steradian of GGX visible-normal sampling from wo toward wi (reflection):
+ * D(h) G1(wo) / (4 cos_o), with bsdf_eval's clamp of cos_o. */
+static double bsdf_ggx_pdf(const ub_bsdf *b, const float n[3], const double wo[3], const double wi[3])
+{
+    double cos_o = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
+    double cos_i = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2];
+    if (!(cos_i > 0.0))
+        return 0.0;
+    cos_o = cos_o > 1e-6 ? (cos_o < 1.0 ? cos_o : 1.0) : 1e-6;
+    double alpha = b->roughness * b->roughness, alpha2 = alpha * alpha;
+    double h[3] = {wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]};
+    double len = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+    if (!(alpha2 > 2e-10) || !(len > 0.0))
+        return 0.0;
+    double cos_nh = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / len;
+    double c2 = cos_nh * cos_nh < 1.0 ? cos_nh * cos_nh : 1.0;
+    double d = 1.0 - c2 + alpha2 * c2;
+    double D = alpha2 / (M_PI * d * d);
+    return D / (1.0 + bsdf_lambda(alpha2, cos_o)) / (4.0 * cos_o);
+}
+
+/* A GGX visible normal for wo by (r1, r2) in [0, 1)^2 (Heitz 2018, isotropic), and wo mirrored
+ * about it into wi. Returns 0 if wi falls below the surface. */
+static int bsdf_ggx_sample(const ub_bsdf *b, const float n[3], const double wo[3], double r1, double r2,
+                           double wi[3])
+{
+    double t[3], s[3];
+    bsdf_frame(n, t, s);
+    double alpha = b->roughness * b->roughness;
+    double lo[3] = {t[0] * wo[0] + t[1] * wo[1] + t[2] * wo[2], s[0] * wo[0] + s[1] * wo[1] + s[2] * wo[2],
+                    n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2]};
+    if (!(lo[2] > 0.0))
+        lo[2] = 1e-6;
+    double vh[3] = {alpha * lo[0], alpha * lo[1], lo[2]};
+    double vlen = sqrt(vh[0] * vh[0] + vh[1] * vh[1] + vh[2] * vh[2]);
+    for (int k = 0; k < 3; k++)
+        vh[k] /= vlen;
+    double lensq = vh[0] * vh[0] + vh[1] * vh[1];
+    double T1[3] = {1.0, 0.0, 0.0};
+    if (lensq > 0.0) {
+        double inv = 1.0 / sqrt(lensq);
+        T1[0] = -vh[1] * inv;
+        T1[1] = vh[0] * inv;
+    }
+    double T2[3] = {vh[1] * T1[2] - vh[2] * T1[1], vh[2] * T1[0] - vh[0] * T1[2], vh[0] * T1[1] - vh[1] * T1[0]};
+    double r = sqrt(r1), phi = 2.0 * M_PI * r2;
+    double p1 = r * ub_cos(phi), p2 = r * ub_sin(phi), half = 0.5 * (1.0 + vh[2]);
+    double rest = 1.0 - p1 * p1;
+    p2 = (1.0 - half) * sqrt(rest > 0.0 ? rest : 0.0) + half * p2;
+    double up = 1.0 - p1 * p1 - p2 * p2;
+    up = sqrt(up > 0.0 ? up : 0.0);
+    double nh[3];
+    for (int k = 0; k < 3; k++)
+        nh[k] = p1 * T1[k] + p2 * T2[k] + up * vh[k];
+    double m[3] = {alpha * nh[0], alpha * nh[1], nh[2] > 0.0 ? nh[2] : 0.0};
+    double mlen = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+    if (!(mlen > 0.0))
+        return 0;
+    double mw[3];
+    for (int k = 0; k < 3; k++)
+        mw[k] = (m[0] * t[k] + m[1] * s[k] + m[2] * n[k]) / mlen;
+    double dot = wo[0] * mw[0] + wo[1] * mw[1] + wo[2] * mw[2];
+    for (int k = 0; k < 3; k++)
+        wi[k] = 2.0 * dot * mw[k] - wo[k];
+    return n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2] > 0.0;
+}
+
+/* What a path's next bounce may draw at one hit, and how likely: the density of the bounce
+ * technique is scale x ((1 - p_specular) diffuse_allowed cos / pi + p_specular specular_allowed
+ * ggx_pdf); scale holds the chances of going on at all (not mirrored, Russian roulette). The
+ * world's light (world.h) weighs its map samples against it. */
+typedef struct {
+    double scale, p_specular;
+    int diffuse_allowed, specular_allowed;
+} ub_bounce_density;
+
+/* That density toward unit wi (b NULL: Lambert, the diffuse lobe alone). */
+static double bounce_density(const ub_bounce_density *bd, const ub_bsdf *b, const float n[3], const double wo[3],
+                             const double wi[3])
+{
+    double c = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2];
+    if (!(c > 0.0))
+        return 0.0;
+    double p = bd->diffuse_allowed ? (1.0 - bd->p_specular) * c * M_1_PI : 0.0;
+    if (b && bd->specular_allowed && bd->p_specular > 0.0)
+        p += bd->p_specular * bsdf_ggx_pdf(b, n, wo, wi);
+    return bd->scale * p;
+}
+
 #endif

@@ -525,6 +525,12 @@ static inline void put(float *buf, size_t idx, int chans, const float *v, int sa
  * the Reflection pass, whose sum is R); and what the camera rays found, kept for the passes. */
 typedef struct {
     float L[3][UB_LANES], W[UB_LANES], Wr[UB_LANES], R[3][UB_LANES];
+    /* Global illumination: the colour of the path's throughput (W x tint; 1 without), its
+     * bounces so far by kind, and the density its last bounce ray was drawn with (0: a mirror or
+     * the camera, whose rays see the world in full). */
+    float tint[3][UB_LANES];
+    int diffuse_count[UB_LANES], glossy_count[UB_LANES];
+    double bounce_density[UB_LANES];
     float pass_ao[UB_LANES], pass_shadow[UB_LANES], pass_trap[UB_LANES];
     float coverage[UB_LANES]; /* the first hit's alpha (a material's Alpha; 1 without) */
     float pass_diffuse[3][UB_LANES], pass_ambient[3][UB_LANES];
@@ -554,7 +560,10 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
         ps->pass_shadow[l] = 1.0f;
         ps->pass_trap[l] = 0.0f;
         ps->coverage[l] = 1.0f;
+        ps->diffuse_count[l] = ps->glossy_count[l] = 0;
+        ps->bounce_density[l] = 0.0;
         for (int i = 0; i < 3; i++) {
+            ps->tint[i][l] = 1.0f;
             ps->L[i][l] = ps->R[i][l] = 0.0f;
             ps->pass_diffuse[i][l] = ps->pass_ambient[i][l] = 0.0f;
             ps->pos0[i][l] = 0.0;
@@ -592,29 +601,152 @@ static int add_background(const ub_scene *sc, int bounce, int alive, const ub_pa
             world_radiance(sc->world, d, seen);
             for (int i = 0; i < 3 && bounce == 0; i++)
                 seen[i] *= film->background[3];
+            /* A path's diffuse or glossy bounce ray: world_light sampled the map for the rest. */
+            if (ps->bounce_density[l] > 0.0) {
+                float share = (float)world_bounce_share(sc, d, ps->bounce_density[l]);
+                for (int i = 0; i < 3; i++)
+                    seen[i] *= share;
+            }
         }
         for (int i = 0; i < 3; i++) {
-            ps->L[i][l] += ps->W[l] * seen[i];
+            ps->L[i][l] += ps->W[l] * ps->tint[i][l] * seen[i];
             if (bounce > 0)
-                ps->R[i][l] += ps->Wr[l] * seen[i];
+                ps->R[i][l] += ps->Wr[l] * ps->tint[i][l] * seen[i];
         }
     }
     return hit_lanes;
+}
+
+/* ---- Global illumination (shading use_gi): at every hit, after the lights and the world
+ * (next-event estimation), the path goes on in one direction drawn from the surface: mirrored
+ * with the surface's reflectivity (a glossy bounce), else from its BSDF (bsdf.h: cosine for
+ * Lambert, diffuse or GGX lobe for a material), its throughput times BSDF x cos / density.
+ * Bounces are limited as Cycles' Light Paths limit them; from the fourth on, Russian roulette
+ * ends weak paths (throughput below 1) with the chance 1 - throughput and divides the survivors
+ * by the rest. Every random number is random_uniform of the pixel, sample and a dimension of
+ * its own, so paths do not depend on threads or tiles. */
+
+enum { GI_STOP = 0, GI_MIRROR, GI_BSDF };
+enum { GI_RR_START = 3, GI_DIM = 0x47490000 }; /* dimensions GI_DIM + 8 bounce + 0..4 */
+
+typedef struct {
+    int kind[UB_LANES];
+    int glossy[UB_LANES];         /* GI_BSDF: drawn from the specular lobe */
+    float mirror[UB_LANES];       /* the surface's mirrored fraction (0 where no mirror bounce is left) */
+    float weight[3][UB_LANES];    /* throughput factor of the bounce */
+    double dir[3][UB_LANES];      /* GI_BSDF: the drawn direction */
+    double density[UB_LANES];     /* GI_BSDF: its density (bsdf.h bounce_density) */
+    ub_bounce_density bd[UB_LANES]; /* what could have been drawn, for world_light */
+} gi_plan;
+
+/* The next bounce of each hit lane: lane l is full-image pixel (px0 + step l, py). */
+static void gi_plan_bounces(const ub_shading *sh, const sample_point *sp, int px0, int py, int step, int bounce,
+                            int hit_lanes, const ub_packet_rays *pr, const ub_surface *sf, const ub_paths *ps,
+                            gi_plan *plan)
+{
+    for (int l = 0; l < UB_LANES; l++) {
+        plan->kind[l] = GI_STOP;
+        plan->glossy[l] = 0;
+        plan->mirror[l] = 0.0f;
+        plan->density[l] = 0.0;
+        plan->bd[l] = (ub_bounce_density){0.0, 0.0, 0, 0};
+        if (!((hit_lanes >> l) & 1))
+            continue;
+        int px = px0 + step * l, dim = GI_DIM + 8 * bounce;
+        int more = bounce < sh->max_bounces;
+        int glossy_ok = more && ps->glossy_count[l] < sh->glossy_bounces;
+        int diffuse_ok = more && ps->diffuse_count[l] < sh->diffuse_bounces;
+        float r = glossy_ok ? sf->reflectivity[l] : 0.0f;
+        plan->mirror[l] = r;
+        const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
+        double p_specular = b ? bsdf_specular_probability(b) : 0.0;
+        double q = 1.0;
+        if (bounce >= GI_RR_START) {
+            float strongest = 0.0f;
+            for (int i = 0; i < 3; i++)
+                strongest = fmaxf(strongest, ps->W[l] * ps->tint[i][l]);
+            q = strongest < 1.0f ? strongest : 1.0;
+        }
+        ub_bounce_density *bd = &plan->bd[l];
+        bd->p_specular = p_specular;
+        bd->diffuse_allowed = diffuse_ok && p_specular < 1.0;
+        bd->specular_allowed = glossy_ok && p_specular > 0.0;
+        bd->scale = bd->diffuse_allowed || bd->specular_allowed ? q * (1.0 - r) : 0.0;
+        if (random_uniform(px, py, sp->index, dim + 1) >= q)
+            continue; /* Russian roulette */
+        if (random_uniform(px, py, sp->index, dim) < r) {
+            plan->kind[l] = GI_MIRROR;
+            for (int i = 0; i < 3; i++)
+                plan->weight[i][l] = (float)(1.0 / q);
+            continue;
+        }
+        if (!(bd->scale > 0.0))
+            continue;
+        int specular = random_uniform(px, py, sp->index, dim + 2) < p_specular;
+        if (specular ? !bd->specular_allowed : !bd->diffuse_allowed)
+            continue;
+        float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
+        double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, wi[3], f[3];
+        double r3 = random_uniform(px, py, sp->index, dim + 3), r4 = random_uniform(px, py, sp->index, dim + 4);
+        if (specular) {
+            if (!bsdf_ggx_sample(b, n, wo, r3, r4, wi))
+                continue;
+        } else {
+            diffuse_sample(n, r3, r4, wi);
+        }
+        double density = bounce_density(bd, b, n, wo, wi);
+        if (!(density > 0.0))
+            continue;
+        if (b) {
+            bsdf_eval(b, n, wo, wi, f);
+        } else {
+            double c = diffuse_response(n, wi);
+            for (int i = 0; i < 3; i++)
+                f[i] = sf->albedo[i][l] * c;
+        }
+        plan->kind[l] = GI_BSDF;
+        plan->glossy[l] = specular; /* Cycles counts a bounce by the lobe it drew from */
+        plan->density[l] = density;
+        for (int i = 0; i < 3; i++) {
+            plan->dir[i][l] = wi[i];
+            plan->weight[i][l] = (float)((1.0 - r) * f[i] / density);
+        }
+    }
+}
+
+/* The path of lane l after its planned bounce: its tint, counts and the density the world seen
+ * next is weighed with. Returns 0 where the path ends. */
+static int gi_continue(const gi_plan *plan, int l, ub_paths *ps)
+{
+    int kind = plan->kind[l];
+    ps->bounce_density[l] = kind == GI_BSDF ? plan->density[l] : 0.0;
+    if (kind == GI_STOP)
+        return 0;
+    for (int i = 0; i < 3; i++)
+        ps->tint[i][l] *= plan->weight[i][l];
+    if (kind == GI_MIRROR || plan->glossy[l])
+        ps->glossy_count[l]++;
+    else
+        ps->diffuse_count[l]++;
+    return 1;
 }
 
 /* The local light of each hit lane (diffuse and ambient, fogged) into the paths, the first
  * bounce's passes, and the mirrored rays of the lanes that go on; returns those lanes. */
 static int add_surface_light(const ub_shading *sh, const ub_film *film, int bounce, int hit_lanes, const ub_surface *sf,
                              const float direct[3][UB_LANES], const float shadow[UB_LANES],
-                             const float ao[UB_LANES], const ub_trace_result *tr, ub_packet_rays *pr, ub_paths *ps)
+                             const float ao[UB_LANES], const ub_trace_result *tr, const gi_plan *plan,
+                             ub_packet_rays *pr, ub_paths *ps)
 {
     int last = bounce >= sh->reflection_depth;
     int next = 0;
+    /* With global illumination the bounces bring the light of the surroundings: no ambient term. */
+    const float ambient_on = plan ? 0.0f : 1.0f;
     for (int l = 0; l < UB_LANES; l++) {
         if (!((hit_lanes >> l) & 1))
             continue;
         /* Without a further bounce the surface shows its own colour in full. */
-        float r = last ? 0.0f : sf->reflectivity[l];
+        float r = plan ? plan->mirror[l] : (last ? 0.0f : sf->reflectivity[l]);
         float f = sh->fog_density > 0.0 ? (float)(1.0 - ub_exp(-sh->fog_density * tr->t[l])) : 0.0f;
         float local[3], dif[3], amb[3];
         int material = (sf->bsdf_lanes >> l) & 1;
@@ -623,15 +755,15 @@ static int add_surface_light(const ub_shading *sh, const ub_film *film, int boun
         for (int i = 0; i < 3; i++) {
             /* With a material the direct light went through its BSDF, colour included. */
             dif[i] = material ? (1.0f - r) * a * direct[i][l] : (1.0f - r) * sf->albedo[i][l] * direct[i][l];
-            amb[i] = (1.0f - r) * sf->albedo[i][l] * sh->ambient[i] * ao[l];
+            amb[i] = (1.0f - r) * sf->albedo[i][l] * sh->ambient[i] * ao[l] * ambient_on;
             local[i] = dif[i] + amb[i];
             if (material) {
                 amb[i] *= a;
                 local[i] = dif[i] + amb[i] + a * sf->emission[i][l] + (1.0f - a) * film->background[i];
             }
-            ps->L[i][l] += ps->W[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
+            ps->L[i][l] += ps->W[l] * ps->tint[i][l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
             if (bounce > 0)
-                ps->R[i][l] += ps->Wr[l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
+                ps->R[i][l] += ps->Wr[l] * ps->tint[i][l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
         }
         if (bounce == 0) {
             for (int i = 0; i < 3; i++) {
@@ -645,22 +777,25 @@ static int add_surface_light(const ub_shading *sh, const ub_film *film, int boun
             ps->pass_shadow[l] = shadow[l];
             ps->pass_trap[l] = sf->trap[l];
             ps->coverage[l] = a;
-            ps->Wr[l] = r;
+            /* With global illumination the Reflection pass follows the mirrored paths. */
+            ps->Wr[l] = plan ? (plan->kind[l] == GI_MIRROR ? 1.0f : 0.0f) : r;
         } else {
-            ps->Wr[l] *= (1.0f - f) * r;
+            ps->Wr[l] *= (1.0f - f) * (plan ? 1.0f : r);
         }
         if (material)
             ps->Wr[l] *= a;
-        ps->W[l] *= (1.0f - f) * r;
+        /* Global illumination: the bounce's weight is in the tint (its chances included). */
+        ps->W[l] *= (1.0f - f) * (plan ? 1.0f : r);
         if (material)
             ps->W[l] *= a;
-        if (!(ps->W[l] > 0.0f))
+        if (!(ps->W[l] > 0.0f) || (plan && !gi_continue(plan, l, ps)))
             continue;
-        /* Mirror reflection about the normal (which faces the incoming ray). */
+        /* Mirror reflection about the normal (which faces the incoming ray), or GI's drawn direction. */
         double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
         double dn = d[0] * sf->n[0][l] + d[1] * sf->n[1][l] + d[2] * sf->n[2][l];
+        int drawn = plan && plan->kind[l] == GI_BSDF;
         for (int i = 0; i < 3; i++) {
-            pr->dir[i][l] = d[i] - 2.0 * dn * sf->n[i][l];
+            pr->dir[i][l] = drawn ? plan->dir[i][l] : d[i] - 2.0 * dn * sf->n[i][l];
             pr->origin[i][l] = sf->p[i][l] + sf->bias[l] * sf->n[i][l];
         }
         pr->t_base[l] += tr->t[l];
@@ -773,7 +908,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
     const int want_trap = film->pass[UB_PASS_ORBIT_TRAP] != NULL;
     /* AO only changes the ambient term: without ambient light it is needed for its pass alone. */
     const int use_ao = sh->ao_strength > 0.0f
-                    && (sh->ambient[0] > 0.0f || sh->ambient[1] > 0.0f || sh->ambient[2] > 0.0f
+                    && ((!sh->gi && (sh->ambient[0] > 0.0f || sh->ambient[1] > 0.0f || sh->ambient[2] > 0.0f))
                         || film->pass[UB_PASS_AO] != NULL);
     const sample_point sp = sample_point_of(sample);
 
@@ -807,9 +942,13 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                 if (cancelled(sc))
                     return;
                 float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
+                const int px0 = film->x0 + film->step * x, py = film->y0 + film->step * y;
+                gi_plan plan;
+                if (sh->gi)
+                    gi_plan_bounces(sh, &sp, px0, py, film->step, bounce, hit_lanes, &pr, &sf, &ps, &plan);
                 direct_light(sc, dps, bounce, hit_lanes, &pr, &tr, &sf, direct, shadow, cnt);
-                world_light(sc, dps, &sp, film->x0 + film->step * x, film->y0 + film->step * y, film->step, bounce,
-                            hit_lanes, &pr, &tr, &sf, direct, cnt);
+                world_light(sc, dps, &sp, px0, py, film->step, bounce, hit_lanes, &pr, &tr, &sf,
+                            sh->gi ? plan.bd : NULL, direct, cnt);
                 if (use_ao)
                     ambient_occlusion(sc, dps, hit_lanes, sf.p, sf.n, ao);
                 else
@@ -817,7 +956,8 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                         ao[l] = 1.0f;
                 if (cancelled(sc))
                     return;
-                alive = add_surface_light(sh, film, bounce, hit_lanes, &sf, direct, shadow, ao, &tr, &pr, &ps);
+                alive = add_surface_light(sh, film, bounce, hit_lanes, &sf, direct, shadow, ao, &tr,
+                                          sh->gi ? &plan : NULL, &pr, &ps);
             }
             write_passes(sc, sample, x, y, n, &ps, cnt);
         }

@@ -236,6 +236,11 @@ static const ub_param shading_rows[] = {
     INTEGER(SH, world_samples, 0, UB_MAX_WORLD_SAMPLES, D(1.0),
             "world light samples per hit and anti-aliasing sample, each one from the world map and one "
             "from the surface (multiple importance sampling); 0: the world map is only seen, it lights nothing"),
+    FLAG(SH, use_gi, NULL, "global illumination: paths bounce off every surface (Cycles' Light Paths); no ambient term"),
+    INTEGER(SH, max_bounces, 0, UB_MAX_BOUNCES, D(12), "global illumination: bounces of a path in all"),
+    INTEGER(SH, diffuse_bounces, 0, UB_MAX_BOUNCES, D(4), "global illumination: diffuse bounces of a path"),
+    INTEGER(SH, glossy_bounces, 0, UB_MAX_BOUNCES, D(4),
+            "global illumination: glossy bounces of a path (a material's specular lobe, mirror reflections)"),
     {"lights", UB_PARAM_LIST, FIELD_OF(SH, lights), 1, 1, 0, 0, NULL, NULL, 0,
      "lights as dicts of the light section", 0, UB_MAX_LIGHTS, 0, FIELD_OF(SH, lights_count),
      sizeof(ub_light_input), &ub_light_section},

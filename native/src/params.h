@@ -144,6 +144,7 @@ typedef struct {
     int lights_count;
     ub_light_input lights[UB_MAX_LIGHTS];
     int world_samples;
+    int use_gi, max_bounces, diffuse_bounces, glossy_bounces;
 } ub_shading_input;
 
 /* render()'s keywords beside camera, objects and passes. */

@@ -656,4 +656,8 @@ void ub_shading_from_input(ub_shading *sh, const ub_shading_input *in)
     sh->sea_reflectivity = (float)in->sea_reflectivity;
     sh->light_count = in->lights_count;
     sh->world_samples = in->world_samples;
+    sh->gi = in->use_gi;
+    sh->max_bounces = in->max_bounces;
+    sh->diffuse_bounces = in->diffuse_bounces;
+    sh->glossy_bounces = in->glossy_bounces;
 }

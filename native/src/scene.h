@@ -23,6 +23,7 @@
 #define UB_MAX_REFLECTION_DEPTH 16
 #define UB_MAX_AO_SAMPLES 32
 #define UB_MAX_WORLD_SAMPLES 64
+#define UB_MAX_BOUNCES 1024
 #define UB_MAX_RAMP 256
 #define UB_MAX_PATH 256        /* points of a Julia stack's c-path */
 #define UB_MAX_IFS_MAPS 32
@@ -285,6 +286,8 @@ typedef struct {
     ub_light lights[UB_MAX_LIGHTS];
     int world_samples;         /* world light samples per hit and anti-aliasing sample (each: one
                                   from the map, one from the surface, combined by MIS) */
+    int gi;                    /* path tracing: every surface bounces light (kernel.h, gi_bounce) */
+    int max_bounces, diffuse_bounces, glossy_bounces; /* Cycles' Light Paths limits */
 } ub_shading;
 
 typedef enum {

@@ -151,10 +151,8 @@ static inline double diffuse_response(const float n[3], const double wi[3])
  * method, in the frame of Duff et al. 2017). */
 static double diffuse_sample(const float n[3], double r1, double r2, double wi[3])
 {
-    double sign = n[2] >= 0.0f ? 1.0 : -1.0;
-    double a = -1.0 / (sign + n[2]), b = n[0] * n[1] * a;
-    double t[3] = {1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]};
-    double s[3] = {b, sign + n[1] * n[1] * a, -(double)n[1]};
+    double t[3], s[3];
+    bsdf_frame(n, t, s);
     double r = sqrt(r1), phi = 2.0 * M_PI * r2;
     double x = r * ub_cos(phi), y = r * ub_sin(phi), z = sqrt(1.0 - r1 > 0.0 ? 1.0 - r1 : 0.0);
     for (int k = 0; k < 3; k++)
@@ -162,12 +160,25 @@ static double diffuse_sample(const float n[3], double r1, double r2, double wi[3
     return z * M_1_PI;
 }
 
+/* Density per steradian of the map's distribution along direction d. */
+static double world_pdf_along(const ub_world *wd, const double d[3])
+{
+    double u, v;
+    int i, j;
+    world_uv(d, &u, &v);
+    world_texel(wd, u, v, &i, &j);
+    return world_pdf(wd, i, j, ub_hypot(d[0], d[1]));
+}
+
 /* One direction of a world-light pair at lane l: its radiance over (p_map + p_surface) times the
  * surface's response (Lambert's cos / pi, or the material's BSDF `b` seen from wo, its colour
  * included); 0 if nothing can arrive. technique 0 draws from the map, 1 from the surface (cosine:
- * unbiased for a glossy material too, if noisier). */
+ * unbiased for a glossy material too, if noisier). With global illumination (bd not NULL) the
+ * path's own next bounce is the second technique: the map's N samples are weighed against its
+ * density, p_surface = density / N (balance heuristic over N + 1 samples; see world_bounce_share). */
 static int world_direction_weight(const ub_world *wd, const float n[3], const ub_bsdf *b, const double wo[3],
-                                  int technique, double r1, double r2, double d[3], double weight[3])
+                                  int technique, double r1, double r2, const ub_bounce_density *bd, int N,
+                                  double d[3], double weight[3])
 {
     double p_map, p_surface;
     int i, j;
@@ -175,7 +186,7 @@ static int world_direction_weight(const ub_world *wd, const float n[3], const ub
         if (!world_sample(wd, r1, r2, d, &i, &j, &p_map))
             return 0;
         double c = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-        p_surface = c > 0.0 ? c * M_1_PI : 0.0;
+        p_surface = bd ? bounce_density(bd, b, n, wo, d) / N : (c > 0.0 ? c * M_1_PI : 0.0);
     } else {
         p_surface = diffuse_sample(n, r1, r2, d);
         double u, v;
@@ -199,12 +210,28 @@ static int world_direction_weight(const ub_world *wd, const float n[3], const ub
     return weight[0] > 0.0 || weight[1] > 0.0 || weight[2] > 0.0;
 }
 
+/* The share of the world seen along a path's bounce ray drawn with density `density` (direction
+ * d): the balance heuristic against world_light's N map samples, density / (N p_map + density),
+ * so that the two add up to the world's light once. 1 where the world lights nothing. */
+static double world_bounce_share(const ub_scene *sc, const double d[3], double density)
+{
+    const ub_world *wd = sc->world;
+    const int N = sc->shading->world_samples;
+    if (!wd || N <= 0 || !(wd->sum > 0.0))
+        return 1.0;
+    double p_map = world_pdf_along(wd, d);
+    return density > 0.0 ? density / (N * p_map + density) : 0.0;
+}
+
 /* The world's light at the hits `lanes` of one bounce, added to `direct` as direct_light adds the
  * lights' (irradiance / pi, or through a material's BSDF): world_samples pairs per hit, shadows marched as for the lights (any hit; the
- * sea blocks what comes from below it). Lane l is full-image pixel (px0 + step l, py). */
+ * sea blocks what comes from below it). Lane l is full-image pixel (px0 + step l, py). With
+ * global illumination, lanes whose path may bounce on (bounce[l].scale > 0) draw from the map
+ * alone, weighed against that bounce (world_bounce_share). */
 static void world_light(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int px0, int py,
                         int step, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
-                        const ub_surface *sf, float direct[3][UB_LANES], ub_counters *cnt)
+                        const ub_surface *sf, const ub_bounce_density *bounces, float direct[3][UB_LANES],
+                        ub_counters *cnt)
 {
     const ub_shading *sh = sc->shading;
     const ub_world *wd = sc->world;
@@ -225,13 +252,16 @@ static void world_light(const ub_scene *sc, const ub_de_params *dps, const sampl
                 sr.dir[2][l] = 1.0;
                 if (!((lanes >> l) & 1))
                     continue;
+                const ub_bounce_density *bd = bounces && bounces[l].scale > 0.0 ? &bounces[l] : NULL;
+                if (bd && technique == 1)
+                    continue;
                 int dim = ((bounce * N + s) * 2 + technique) * 2;
                 double r1 = random_uniform(px0 + step * l, py, sp->index, dim);
                 double r2 = random_uniform(px0 + step * l, py, sp->index, dim + 1);
                 float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
                 const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
                 double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, d[3], w[3];
-                if (!world_direction_weight(wd, n, b, wo, technique, r1, r2, d, w))
+                if (!world_direction_weight(wd, n, b, wo, technique, r1, r2, bd, N, d, w))
                     continue;
                 /* The sea is opaque: the sky below it does not reach a point above it. */
                 if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)

@@ -1,5 +1,5 @@
 """Cancel latency over a grid of heavy but valid settings (issue 16, defect 2): every kind at the UI's
-limits (10000 iterations, 64 bisection steps, 32 AO samples, 16 reflection bounces, a 32-map IFS at
+limits (10000 iterations, 64 bisection steps, 32 AO samples, 16 reflection bounces, 1024 GI bounces, a 32-map IFS at
 depth 16, soft shadows from six lights, the sea, several objects), cancelled while the camera rays
 march (phase 0) and while the hits are shaded (phase 1: normals, lights, shadows, AO, sea waves,
 reflections), with one render thread.
@@ -56,6 +56,12 @@ CASES = {
     "sea_waves_8_objects_reflections": (
         [dict(HEAVY, mu=(-0.2, 0.8, 0.1, 0.0), matrix=m) for m in instances(8, 0.25)],
         dict(AO, use_sea=True, sea_height=-0.6, sea_reflectivity=1.0, sea_wavelength=0.05, reflection_depth=16), 96),
+    # Global illumination at its limits: 1024 bounces of every kind, paths that bounce between
+    # the objects and the sea, each bounce with soft shadows from six lights.
+    "gi_1024_bounces_sea_everything": (
+        [dict(HEAVY, mu=(-0.2, 0.8, 0.1, 0.0), color=(1.0, 1.0, 1.0), matrix=m) for m in instances(4)],
+        dict(EVERYTHING, use_gi=True, max_bounces=1024, diffuse_bounces=1024, glossy_bounces=1024, use_sea=True,
+             sea_height=-0.6, sea_reflectivity=0.5, sea_color=(1.0, 1.0, 1.0)), 96),
 }
 # When to cancel: seconds after the render starts (the camera rays march), and after the shading
 # phase starts.
