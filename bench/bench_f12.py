@@ -16,7 +16,16 @@ one copy of the passes (4 bytes per channel per pixel) and against a bare core c
 each measured in a fresh process (the peak is a process's high-water mark: ru_maxrss after the
 render minus before it, the scene built and a small render done first).
 
+With --animation: a 48-frame animation (examples/animate_mu.py's scene: mu keyframed around a
+loop, every pass of that example on) rendered by bpy.ops.render.render(animation=True) into PNGs,
+against the bare core rendering the same 48 frames' scenes: each frame exported beforehand
+(untimed), then one core call per frame into buffers of the same passes. Blender's PNG writing
+is the user's cost with either (the core alone writes no file), so it is measured apart: the same
+48 frames as F12s that write nothing (frame_set, then bpy.ops.render.render()), whose difference
+to the animation is what saving the frames costs. Interleaved rounds, medians of CPU time.
+
     python bench/bench_f12.py [--repeats 3] [--res 1920x1080] [--memory] [--motion-blur [--samples 16]]
+                              [--animation [--res 640x360]]
 """
 import argparse
 import os
@@ -143,6 +152,52 @@ def motion_blur(width, height, samples, repeats):
              summary(evaluation)))
 
 
+def animation(width, height, repeats, frames=48):
+    sys.path.insert(0, str(REPO / "examples"))
+    import animate_mu
+    module = ensure_extension(prog="bench_f12")
+    export = sys.modules[module + ".export"]
+    passes = sys.modules[module + ".passes"]
+    core = sys.modules[module + ".utils"].native()
+    scene, _ob = animate_mu.build_scene(width, height)
+    animate_mu.set_format(scene, 'PNG')
+    scene.frame_start, scene.frame_end = 1, frames
+    out = tempfile.mkdtemp(prefix="unbound-bench-animation-")
+    scene.render.filepath = os.path.join(out, "frame_####")
+    vl = scene.view_layers[0]
+    scenes = []
+    for frame in range(1, frames + 1):  # each frame's export, untimed: what the bare core is given
+        scene.frame_set(frame)
+        dg = bpy.context.evaluated_depsgraph_get()
+        scenes.append((export.camera_description(EyeCamera(), dg, width, height), export.fractal_objects(dg),
+                       export.shading_description(dg), export.render_options(scene)))
+    buffers = {p.native: np.empty((height, width, p.channels), np.float32) for p in passes.enabled(vl)}
+    buffers.setdefault("depth", np.empty((height, width, 1), np.float32))
+
+    def bare_core():
+        for camera, objects, shading, options in scenes:
+            core.render(camera, objects, buffers, shading=shading, **options)
+
+    def f12_each_frame():
+        for frame in range(1, frames + 1):
+            scene.frame_set(frame)
+            bpy.ops.render.render()
+
+    rows = {"animation": [], "f12": [], "core": []}
+    runs = {"animation": lambda: bpy.ops.render.render(animation=True), "f12": f12_each_frame, "core": bare_core}
+    for _ in range(repeats):  # interleaved, so that load changes hit all alike
+        for name, run in runs.items():
+            rows[name].append(timed(run))
+    for name in ("animation", "f12"):
+        ratio = [a[1] / b[1] for a, b in zip(rows[name], rows["core"])]
+        print("%s: wall %s s, CPU %s s; CPU / bare core %s" % (
+            "animation (PNGs)" if name == "animation" else "F12 per frame, no files", summary([t[0] for t in rows[name]]),
+            summary([t[1] for t in rows[name]]), summary(ratio)))
+    print("bare core, %d frames at %dx%d, passes %s: wall %s s, CPU %s s" % (
+        frames, width, height, ",".join(sorted(buffers)), summary([t[0] for t in rows["core"]]),
+        summary([t[1] for t in rows["core"]])))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
@@ -151,6 +206,7 @@ def main():
     ap.add_argument("--memory-child", choices=("f12", "core"))
     ap.add_argument("--motion-blur", action="store_true")
     ap.add_argument("--samples", type=int, default=16)
+    ap.add_argument("--animation", action="store_true")
     args = ap.parse_args()
     width, height = map(int, args.res.split("x"))
     if args.memory_child:
@@ -159,6 +215,8 @@ def main():
         return memory(width, height, args.repeats)
     if args.motion_blur:
         return motion_blur(width, height, args.samples, args.repeats)
+    if args.animation:
+        return animation(width, height, args.repeats)
     module = ensure_extension(prog="bench_f12")
     export = sys.modules[module + ".export"]
     core = sys.modules[module + ".utils"].native()

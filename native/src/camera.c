@@ -1,6 +1,7 @@
 /* Camera rays from Blender's camera description: camera matrix and projection matrix. */
 #include "params.h"
 #include "scene.h"
+#include "camera_projection.h"
 
 #include <math.h>
 #include <string.h>
@@ -89,62 +90,12 @@ const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
     return NULL;
 }
 
-static void unproject(const ub_camera *cam, double nx, double ny, double nz, double out[3])
-{
-    const double(*m)[4] = cam->inv_projection;
-    double v[4];
-    for (int i = 0; i < 4; i++)
-        v[i] = m[i][0] * nx + m[i][1] * ny + m[i][2] * nz + m[i][3];
-    for (int i = 0; i < 3; i++)
-        out[i] = v[i] / v[3];
-}
-
-/* The projection's ray (perspective or orthographic) in camera space: origin ov, unit direction dv. */
 static void projection_ray_view(const ub_camera *cam, double px, double py, double ov[3], double dv[3],
                                 double *t_min, double *t_max)
 {
-    /* Normalised device coordinates of the pixel centre; y = -1 is the bottom row. */
-    double nx = 2.0 * px / cam->width - 1.0;
-    double ny = 2.0 * py / cam->height - 1.0;
-    double pn[3], pf[3];
-    unproject(cam, nx, ny, -1.0, pn); /* on the clip-start plane */
-    unproject(cam, nx, ny, 1.0, pf);  /* on the clip-end plane */
-    if (!cam->orthographic) {
-        double ln = sqrt(pn[0] * pn[0] + pn[1] * pn[1] + pn[2] * pn[2]);
-        double lf = sqrt(pf[0] * pf[0] + pf[1] * pf[1] + pf[2] * pf[2]);
-        for (int i = 0; i < 3; i++) {
-            dv[i] = pn[i] / ln;
-            ov[i] = 0.0;
-        }
-        /* Blender clips at view-axis depths, so t runs between the two planes along the ray. */
-        *t_min = ln;
-        *t_max = lf;
-    } else {
-        double d[3] = {pf[0] - pn[0], pf[1] - pn[1], pf[2] - pn[2]};
-        double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        for (int i = 0; i < 3; i++)
-            dv[i] = d[i] / l;
-        /* Start rays on the camera plane so that t is the distance from the camera. */
-        double s = pn[2] / dv[2];
-        for (int i = 0; i < 3; i++)
-            ov[i] = pn[i] - dv[i] * s;
-        *t_min = s;
-        *t_max = pf[2] / dv[2];
-    }
+    projection_ray_view_kind(cam, cam->orthographic, px, py, ov, dv, t_min, t_max);
 }
 
-/* Camera space -> world: a point ov and a direction dv. */
-static void view_to_world(const ub_camera *cam, const double ov[3], const double dv[3], double origin[3],
-                          double dir[3])
-{
-    for (int r = 0; r < 3; r++) {
-        const double *row = cam->cam_to_world[r];
-        dir[r] = row[0] * dv[0] + row[1] * dv[1] + row[2] * dv[2];
-        origin[r] = row[0] * ov[0] + row[1] * ov[1] + row[2] * ov[2] + row[3];
-    }
-}
-
-/* The projection's ray (perspective or orthographic) in world space. */
 static void projection_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
                            double *t_min, double *t_max)
 {
@@ -152,7 +103,6 @@ static void projection_ray(const ub_camera *cam, double px, double py, double or
     projection_ray_view(cam, px, py, ov, dv, t_min, t_max);
     view_to_world(cam, ov, dv, origin, dir);
 }
-
 
 /* The elementary functions of the panoramic mappings, one small function each: what reaches
  * pixels must not depend on the platform's libm, so they are ubmath.h's (the same bits on every

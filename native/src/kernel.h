@@ -12,6 +12,7 @@
 #endif
 
 #include "scene.h"
+#include "camera_projection.h"
 #include "ubmath.h" /* exp, pow, sin: the same bits on every platform */
 
 #include <float.h>
@@ -65,12 +66,44 @@ static int pixel_ray(const ub_camera *cam, int px, int py, const sample_point *s
                          t_max);
 }
 
+/* Camera rays of a projection camera without depth of field through image points (px[l], py):
+ * the lane loop of ub_camera_ray's arithmetic (camera_projection.h), which the compiler turns into
+ * double-precision vector code, so the rays have ub_camera_ray's bits at a fraction of the cost of
+ * one call per lane (issue 21: the rays' divides and square roots, lane by lane, took 12 % of a
+ * render). Always inlined, so that `orthographic` is a constant and the loop has no branch. */
+static inline __attribute__((always_inline)) void projection_packet(const ub_camera *restrict cam, int orthographic,
+                                                                    const double px[UB_LANES], double py,
+                                                                    ub_packet_rays *restrict pr)
+{
+    const ub_camera c = *cam; /* a local copy: the vectoriser loads its constants once */
+    for (int l = 0; l < UB_LANES; l++) {
+        double ov[3], dv[3], o[3], d[3];
+        projection_ray_view_kind(&c, orthographic, px[l], py, ov, dv, &pr->t_min[l], &pr->t_max[l]);
+        view_to_world(&c, ov, dv, o, d);
+        for (int i = 0; i < 3; i++) {
+            pr->origin[i][l] = o[i];
+            pr->dir[i][l] = d[i];
+        }
+        pr->t_base[l] = 0.0f;
+    }
+}
+
 /* Camera rays of the n pixels (px + step l, py), l < n; padding lanes repeat the last real
  * pixel (their results are discarded). Returns the lanes whose pixel sees the scene: outside a
  * panoramic camera's lens a lane gets the view axis and an empty t range, and is not traced. */
 static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, const sample_point *sp,
                          ub_packet_rays *pr)
 {
+    if (cam->panorama == UB_PANORAMA_NONE && !(cam->aperture > 0.0)) {
+        double image_x[UB_LANES];
+        for (int l = 0; l < UB_LANES; l++)
+            image_x[l] = px + step * (l < n ? l : n - 1) + sp->off[0];
+        if (cam->orthographic)
+            projection_packet(cam, 1, image_x, py + sp->off[1], pr);
+        else
+            projection_packet(cam, 0, image_x, py + sp->off[1], pr);
+        return UB_ALL_LANES;
+    }
     int seen = 0;
     for (int l = 0; l < UB_LANES; l++) {
         double o[3], d[3];
