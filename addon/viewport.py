@@ -67,6 +67,12 @@ class WorldMap:
     def __repr__(self):
         return "WorldMap(%s, %s)" % (self.texels.shape, self.digest)
 
+    def __eq__(self, other):
+        return isinstance(other, WorldMap) and repr(self) == repr(other)
+
+    def __hash__(self):
+        return hash(repr(self))
+
 
 def view_part(context, depsgraph):
     """The view's share of a request: the native camera of the region's own view (perspective,

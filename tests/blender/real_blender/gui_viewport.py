@@ -46,7 +46,7 @@ def check_view(label):
     core = mod("utils").native()
     expected = np.zeros((h, w, 4), np.float32)
     core.render(req.camera, req.objects, {"combined": expected}, window=req.window, background=req.background,
-                shading=req.shading)
+                shading=req.shading, world=req.world.texels if req.world is not None else None)
     levels = [[d, n] for g, d, n, _, _ in s.log if g == frame.generation]
     first = next(e[3] for e in s.log if e[0] == frame.generation)
     log(step=label, aperture=req.camera.get("aperture_size", 0.0), same_request=req == s._request, drawn=list(s.drawn), final=frame.final, error=frame.error, window=list(req.window),
