@@ -162,9 +162,10 @@ static void bsdf_eval(const ub_bsdf *b, const float n[3], const double wo[3], co
         out[c] += weight * b->base[c] * cos_i * M_1_PI;
 }
 
-/* ---- Sampling, for path tracing (kernel.h gi_bounce): the next direction is drawn from the
- * diffuse lobe (cosine) or the GGX lobe (visible normals, Heitz 2018), chosen by their rough
- * weights; its density is the mixture's, so any direction's throughput is bsdf_eval / density.
+/* ---- Sampling, for path tracing (kernel.h gi_plan_bounces) and the world light's surface technique
+ * (world.h surface_sample): a direction is drawn from the diffuse lobe (cosine) or the GGX lobe
+ * (visible normals, Heitz 2018), chosen by their rough weights; its density is the mixture's, so
+ * any direction's throughput is bsdf_eval / density.
  * Perfectly smooth lobes (alpha^2 <= 2e-10, which bsdf_eval treats as mirrors no light direction
  * hits) are not sampled. Needs ub_cos and ub_sin (ubmath.h). */
 

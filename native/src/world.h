@@ -3,9 +3,10 @@
  *
  * Missed rays see the map, bilinearly filtered (Cycles' Linear interpolation). At every hit the
  * world's light is estimated with world_samples pairs of directions, one drawn from the map's
- * distribution, one from the surface's (cosine-weighted), combined by the balance heuristic of
- * multiple importance sampling: each pair adds L cos / pi / (p_map + p_surface) for both of its
- * directions (Veach 1997, ch. 9). The light seen there is the map's texel (piecewise constant,
+ * distribution, one from the surface's (cosine-weighted for Lambert; for a material its BSDF's,
+ * the diffuse or the GGX lobe), combined by the balance heuristic of multiple importance
+ * sampling: each pair adds L f / (p_map + p_surface) for both of its directions, f the surface's
+ * response (Veach 1997, ch. 9). The light seen there is the map's texel (piecewise constant,
  * as the distribution is), with a shadow ray marched toward it. */
 
 /* lowbias32 (C. Wellons): a 32-bit integer hash with good avalanche. */
@@ -41,6 +42,11 @@ static void world_direction(double u, double v, double d[3], double *sin_polar)
     d[2] = ub_sin(lat);
     *sin_polar = cl;
 }
+
+/* Dimensions of random_uniform: a world-light pair's two directions use ((bounce N + s) 2 +
+ * technique) 2 + 0..1 (below 2^18), a material's lobe choice WORLD_LOBE_DIM + bounce N + s, apart
+ * from those and from global illumination's (kernel.h GI_DIM). */
+enum { WORLD_LOBE_DIM = 0x574C0000 };
 
 static inline double clamp_unit(double x)
 {
@@ -170,25 +176,64 @@ static double world_pdf_along(const ub_world *wd, const double d[3])
     return world_pdf(wd, i, j, ub_hypot(d[0], d[1]));
 }
 
+/* The surface technique of a material without a bounce to weigh against: its BSDF's own mixture
+ * (bsdf.h: the diffuse lobe's cosine or the GGX lobe's visible normals, chosen by their rough
+ * weights, as global illumination draws), so that a sharp metal's narrow lobe, which the map and
+ * the cosine rarely hit, is found. Its density is bounce_density's with nothing else in play. */
+static ub_bounce_density material_world_density(const ub_bsdf *b)
+{
+    double p_specular = bsdf_specular_probability(b);
+    return (ub_bounce_density){1.0, p_specular, p_specular < 1.0, p_specular > 0.0};
+}
+
+/* A direction drawn from the surface technique by (r1, r2), the lobe chosen by r_lobe (material
+ * lanes only); its density, 0 if none (below the surface). Lambert: the cosine. */
+static double surface_sample(const ub_bsdf *b, const float n[3], const double wo[3], double r_lobe, double r1,
+                             double r2, double d[3])
+{
+    if (!b)
+        return diffuse_sample(n, r1, r2, d);
+    ub_bounce_density own = material_world_density(b);
+    if (r_lobe < own.p_specular) {
+        if (!bsdf_ggx_sample(b, n, wo, r1, r2, d))
+            return 0.0;
+    } else {
+        diffuse_sample(n, r1, r2, d);
+    }
+    return bounce_density(&own, b, n, wo, d);
+}
+
+/* The surface technique's density toward d: the material's mixture, or the cosine for Lambert. */
+static double surface_density(const ub_bsdf *b, const float n[3], const double wo[3], const double d[3])
+{
+    if (b) {
+        ub_bounce_density own = material_world_density(b);
+        return bounce_density(&own, b, n, wo, d);
+    }
+    double c = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    return c > 0.0 ? c * M_1_PI : 0.0;
+}
+
 /* One direction of a world-light pair at lane l: its radiance over (p_map + p_surface) times the
  * surface's response (Lambert's cos / pi, or the material's BSDF `b` seen from wo, its colour
- * included); 0 if nothing can arrive. technique 0 draws from the map, 1 from the surface (cosine:
- * unbiased for a glossy material too, if noisier). With global illumination (bd not NULL) the
+ * included); 0 if nothing can arrive. technique 0 draws from the map, 1 from the surface
+ * (surface_sample; r_lobe picks a material's lobe). With global illumination (bd not NULL) the
  * path's own next bounce is the second technique: the map's N samples are weighed against its
  * density, p_surface = density / N (balance heuristic over N + 1 samples; see world_bounce_share). */
 static int world_direction_weight(const ub_world *wd, const float n[3], const ub_bsdf *b, const double wo[3],
-                                  int technique, double r1, double r2, const ub_bounce_density *bd, int N,
-                                  double d[3], double weight[3])
+                                  int technique, double r_lobe, double r1, double r2, const ub_bounce_density *bd,
+                                  int N, double d[3], double weight[3])
 {
     double p_map, p_surface;
     int i, j;
     if (technique == 0) {
         if (!world_sample(wd, r1, r2, d, &i, &j, &p_map))
             return 0;
-        double c = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-        p_surface = bd ? bounce_density(bd, b, n, wo, d) / N : (c > 0.0 ? c * M_1_PI : 0.0);
+        p_surface = bd ? bounce_density(bd, b, n, wo, d) / N : surface_density(b, n, wo, d);
     } else {
-        p_surface = diffuse_sample(n, r1, r2, d);
+        p_surface = surface_sample(b, n, wo, r_lobe, r1, r2, d);
+        if (!(p_surface > 0.0))
+            return 0;
         double u, v;
         world_uv(d, &u, &v);
         world_texel(wd, u, v, &i, &j);
@@ -255,13 +300,17 @@ static void world_light(const ub_scene *sc, const ub_de_params *dps, const sampl
                 const ub_bounce_density *bd = bounces && bounces[l].scale > 0.0 ? &bounces[l] : NULL;
                 if (bd && technique == 1)
                     continue;
+                const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
                 int dim = ((bounce * N + s) * 2 + technique) * 2;
                 double r1 = random_uniform(px0 + step * l, py, sp->index, dim);
                 double r2 = random_uniform(px0 + step * l, py, sp->index, dim + 1);
+                /* A material's lobe: a dimension of its own, so Lambert's pairs keep their bits. */
+                double r_lobe = technique == 1 && b ? random_uniform(px0 + step * l, py, sp->index,
+                                                                     WORLD_LOBE_DIM + bounce * N + s)
+                                                    : 0.0;
                 float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
-                const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
                 double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, d[3], w[3];
-                if (!world_direction_weight(wd, n, b, wo, technique, r1, r2, bd, N, d, w))
+                if (!world_direction_weight(wd, n, b, wo, technique, r_lobe, r1, r2, bd, N, d, w))
                     continue;
                 /* The sea is opaque: the sky below it does not reach a point above it. */
                 if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)

@@ -54,11 +54,12 @@ def test_white_furnace_lambert_ball_is_rho_L_with_gi():
 @pytest.mark.parametrize("metallic, roughness", [(0.0, 0.5), (0.3, 0.4), (1.0, 0.25), (0.0, 0.08), (1.0, 0.08)])
 def test_white_furnace_material_ball_three_estimators_agree(metallic, roughness):
     """A Principled material on the ball in a uniform world, estimated three independent ways:
-    no GI (map + cosine pairs), GI (map samples weighed against the BSDF-sampled bounce: diffuse
-    cosine or GGX visible normals) and GI with world_samples = 0 (the bounce alone sees the world,
-    f / density: a wrong density shows at once). Pairwise within 4 combined standard errors; the
-    two GI estimates also within 1 % (no GI is far noisier on narrow lobes: cosine samples
-    rarely find them)."""
+    no GI (pairs of a map sample and a BSDF sample: diffuse cosine or GGX visible normals), GI (map
+    samples weighed against the BSDF-sampled bounce) and GI with world_samples = 0 (the bounce
+    alone sees the world, f / density: a wrong density shows at once). Pairwise within 4 combined
+    standard errors and within 1 % (measured within 0.4 %; before the world light drew from the
+    GGX lobe, no GI's per-pixel noise was 6x its mean at roughness 0.08, metallic 1, and its mean
+    39 % low: now 3.3 % and within 0.02 %)."""
     cam = make_camera(40, 30)
     mat = dict(BALL, use_material=True, material_base_color=(0.8, 0.3, 0.2), material_metallic=metallic,
                material_roughness=roughness)
@@ -73,7 +74,7 @@ def test_white_furnace_material_ball_three_estimators_agree(metallic, roughness)
         diff = got[a].mean(0) - got[b].mean(0)
         se = np.sqrt(got[a].var(0, ddof=1) / len(got[a]) + got[b].var(0, ddof=1) / len(got[b]))
         assert np.all(np.abs(diff) <= 4 * se + 1e-6), (a, b, diff, se)
-    assert np.all(np.abs(got[1].mean(0) / got[2].mean(0) - 1) < 0.01), (got[1].mean(0), got[2].mean(0))
+        assert np.all(np.abs(got[a].mean(0) / got[b].mean(0) - 1) < 0.01), (a, b, got[a].mean(0), got[b].mean(0))
 
 
 def floor_scene(cam, gi, samples=16, **extra):
