@@ -32,6 +32,11 @@ static inline double random_uniform(int px, int py, int sample, int dim)
     return (double)(h >> 8) * (1.0 / 16777216.0);
 }
 
+/* Dimensions of random_uniform: a world-light pair's two directions use ((bounce N + s) 2 +
+ * technique) 2 + 0..1 (below 2^18), a material's lobe choice WORLD_LOBE_DIM + bounce N + s, apart
+ * from those and from global illumination's (kernel.h GI_DIM). */
+enum { WORLD_LOBE_DIM = 0x574C0000 };
+
 /* Unit direction of map point (u, v) and the sine of its polar angle. */
 static void world_direction(double u, double v, double d[3], double *sin_polar)
 {
@@ -42,11 +47,6 @@ static void world_direction(double u, double v, double d[3], double *sin_polar)
     d[2] = ub_sin(lat);
     *sin_polar = cl;
 }
-
-/* Dimensions of random_uniform: a world-light pair's two directions use ((bounce N + s) 2 +
- * technique) 2 + 0..1 (below 2^18), a material's lobe choice WORLD_LOBE_DIM + bounce N + s, apart
- * from those and from global illumination's (kernel.h GI_DIM). */
-enum { WORLD_LOBE_DIM = 0x574C0000 };
 
 static inline double clamp_unit(double x)
 {
