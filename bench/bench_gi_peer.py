@@ -20,9 +20,10 @@ reference's alpha for ours; for Mandelbulber the alpha side channel of a plain r
 of sample counts; its CPU seconds (ours: process CPU of the uc.render call; Mandelbulber: the
 whole process, start-up and PNG write included, and its marginal CPU per sample from a straight-line
 fit) are interpolated log-log to the common relative error --target (default 2 %); where the
-ladder does not reach it, the error is extrapolated as c/sqrt(N) (Monte-Carlo), fitted over the
-ladder with the reference's own noise taken out (our reference contains the ladder's samples, so
-its error adds as 1/N - 1/N_ref; Mandelbulber's is independent: 1/N + 1/N_ref).  The ratio
+ladder does not reach it, the error is extrapolated as c/sqrt(N) (Monte-Carlo) from the ladder's
+last rung, the reference's own noise taken out (our reference contains the ladder's samples, so
+its error adds as 1/N - 1/N_ref; Mandelbulber's is independent: 1/N + 1/N_ref), on the cost line
+CPU = a + b N fitted over the ladder.  The ratio
 Mandelbulber / ours at the target is the figure of issue 19 (target >= 10x).
 
     python bench/bench_gi_peer.py [--res 160x128] [--threads 2] [--target 0.02] [--ref-samples 4096]
@@ -117,10 +118,10 @@ def relative_rmse(image, reference, mask):
     return float(np.sqrt(np.mean(diff * diff)) / np.mean(reference[mask]))
 
 
-def noise_constant(samples, errors, n_ref, nested):
-    """Least-squares c of error^2 = c^2 (1/N -+ 1/N_ref): the error of one sample, reference noise removed."""
-    basis = np.array([1.0 / n + (-1.0 if nested else 1.0) / n_ref for n in samples])
-    return float(math.sqrt(np.dot(basis, np.square(errors)) / np.dot(basis, basis)))
+def noise_basis(n, n_ref, nested):
+    """error^2 / c^2 of an n-sample image against an n_ref-sample reference: 1/n - 1/n_ref when the
+    reference contains the image's samples (ours: the same sample sequence), else 1/n + 1/n_ref."""
+    return 1.0 / n + (-1.0 if nested else 1.0) / n_ref
 
 
 def time_line(samples, cpu):
@@ -129,21 +130,31 @@ def time_line(samples, cpu):
     return float(a), float(b)
 
 
-def cpu_at(target, samples, errors, cpu, c, line):
+def fits(stats):
+    """The Monte-Carlo constant c (error = c sqrt(basis)) of the ladder's last rung, the one nearest
+    the target, with the reference's noise taken out; and the cost line over the whole ladder."""
+    last = stats["rows"][-1]
+    c = last["rel_rmse"] / math.sqrt(noise_basis(last["samples"], stats["n_ref"], stats["nested"]))
+    a, b = time_line([r["samples"] for r in stats["rows"]], [r["cpu_s"] for r in stats["rows"]])
+    return dict(c=c, fixed_cpu_s=a, cpu_per_sample_s=b)
+
+
+def cpu_at(target, stats):
     """CPU seconds to reach `target`: log-log interpolation on the ladder where it brackets the target,
-    else the fits (samples = (c/target)^2 on the cost line).  Returns (seconds, samples, how)."""
-    pts = list(zip(errors, cpu, samples))
+    else c/sqrt(N) from the last rung on the cost line.  Returns (seconds, samples, how)."""
+    pts = [(r["rel_rmse"], r["cpu_s"], r["samples"]) for r in stats["rows"]]
     for (e0, t0, n0), (e1, t1, n1) in zip(pts, pts[1:]):
         if e0 >= target >= e1 and e0 > e1:
             f = math.log(e0 / target) / math.log(e0 / e1)
             return (math.exp(math.log(t0) + f * math.log(t1 / t0)), math.exp(math.log(n0) + f * math.log(n1 / n0)),
                     "interpolated")
-    n = (c / target) ** 2
-    return line[0] + line[1] * n, n, "extrapolated (c/sqrt(N))"
+    fit = fits(stats)
+    n = (fit["c"] / target) ** 2
+    return fit["fixed_cpu_s"] + fit["cpu_per_sample_s"] * n, n, f"extrapolated from {pts[-1][2]} by c/sqrt(N)"
 
 
 def measure(name, ladder, n_ref, render, nested, mask_of, out):
-    """Render the reference and the ladder; print and return the rows and fits."""
+    """Render the reference and the ladder; print and return the rows."""
     t0 = time.perf_counter()
     ref = render(n_ref)
     print(f"{name}: reference {n_ref} samples, {ref[-2]:.1f} s CPU, {ref[-1]:.1f} s wall "
@@ -156,16 +167,29 @@ def measure(name, ladder, n_ref, render, nested, mask_of, out):
         err = relative_rmse(image, ref[0], mask)
         rows.append(dict(samples=n, cpu_s=cpu, wall_s=wall, rel_rmse=err))
         print(f"  {n:4d} samples: relative RMSE {100 * err:6.2f} %, CPU {cpu:8.3f} s, wall {wall:7.3f} s", flush=True)
-    samples = [r["samples"] for r in rows]
-    errors = [r["rel_rmse"] for r in rows]
-    cpu = [r["cpu_s"] for r in rows]
-    c = noise_constant(samples, errors, n_ref, nested)
-    line = time_line(samples, cpu)
-    print(f"  one sample's relative error c = {c:.3f}; CPU = {line[0]:.3f} s + {line[1]:.4f} s x samples; "
-          f"object pixels {int(mask.sum())}, reference mean {float(np.mean(ref[0][mask])):.4f}")
-    return dict(rows=rows, c=c, fixed_cpu_s=line[0], cpu_per_sample_s=line[1], n_ref=n_ref,
-                ref_cpu_s=ref[-2], ref_wall_s=ref[-1], object_pixels=int(mask.sum()),
-                ref_mean=float(np.mean(ref[0][mask]))), (samples, errors, cpu, c, line)
+    return dict(rows=rows, n_ref=n_ref, nested=nested, ref_cpu_s=ref[-2], ref_wall_s=ref[-1],
+                object_pixels=int(mask.sum()), ref_mean=float(np.mean(ref[0][mask])))
+
+
+def summarise(report):
+    """Print the fits and the race at report["target"]; adds them to the report."""
+    target = report["target"]
+    for name in ("ours", "mandelbulber"):
+        stats = report[name]
+        stats.update(fits(stats))
+        stats["at_target"] = dict(zip(("cpu_s", "samples", "how"), cpu_at(target, stats)))
+        print(f"{name}: one sample's relative error c = {stats['c']:.3f} (from {stats['rows'][-1]['samples']} "
+              f"samples); CPU = {stats['fixed_cpu_s']:.3f} s + {stats['cpu_per_sample_s']:.4f} s x samples; "
+              f"object pixels {stats['object_pixels']}, reference mean {stats['ref_mean']:.4f}")
+    ours, theirs = report["ours"], report["mandelbulber"]
+    report["ratio_whole_process"] = theirs["at_target"]["cpu_s"] / ours["at_target"]["cpu_s"]
+    report["ratio_marginal"] = (theirs["cpu_per_sample_s"] * theirs["c"] ** 2) / (ours["cpu_per_sample_s"] * ours["c"] ** 2)
+    print(f"\nat {100 * target:.1f} % relative RMSE:")
+    for label, stats in (("ours        ", ours), ("Mandelbulber", theirs)):
+        at = stats["at_target"]
+        print(f"  {label} {at['samples']:8.1f} samples, {at['cpu_s']:8.3f} s CPU ({at['how']})")
+    print(f"  time ratio Mandelbulber / ours: {report['ratio_whole_process']:.1f}x (Mandelbulber's whole process); "
+          f"{report['ratio_marginal']:.1f}x from the marginal CPU per sample x c^2 (start-up left out)")
 
 
 def main(argv=None):
@@ -176,7 +200,13 @@ def main(argv=None):
     ap.add_argument("--ref-samples", type=int, default=4096, help="our reference's samples")
     ap.add_argument("--peer-ref-samples", type=int, default=1024, help="Mandelbulber's reference's samples")
     ap.add_argument("--out", default=str(bc.REPO / "bench" / "out" / "gi_peer"))
+    ap.add_argument("--report", default=None, help="analyse this report.json of an earlier run; render nothing")
     args = ap.parse_args(argv)
+    if args.report:
+        report = json.loads(Path(args.report).read_text())
+        report["target"] = args.target
+        summarise(report)
+        return
     W, H = parse_res(args.res, ap)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -189,27 +219,16 @@ def main(argv=None):
     print(f"machine: nproc {mach['nproc']}, {mach['cpu']}; {W}x{H}, {args.threads} threads; "
           f"load average at start {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}")
     run_ours(1, W, H, args.threads)  # warm-up
-    ours, ours_fit = measure("ours", OUR_LADDER, args.ref_samples, lambda n: run_ours(n, W, H, args.threads),
-                             True, lambda ref: ref[1] > 0.5, out)
-    theirs, theirs_fit = measure("mandelbulber", PEER_LADDER, args.peer_ref_samples,
-                                 lambda n: run_peer(peer, fract, n, W, H, args.threads, out), False,
-                                 lambda ref: peer_silhouette(peer, fract, W, H, args.threads, out), out)
+    ours = measure("ours", OUR_LADDER, args.ref_samples, lambda n: run_ours(n, W, H, args.threads),
+                   True, lambda ref: ref[1] > 0.5, out)
+    theirs = measure("mandelbulber", PEER_LADDER, args.peer_ref_samples,
+                     lambda n: run_peer(peer, fract, n, W, H, args.threads, out), False,
+                     lambda ref: peer_silhouette(peer, fract, W, H, args.threads, out), out)
     load1 = os.getloadavg()
-    t_ours, n_ours, how_ours = cpu_at(args.target, *ours_fit)
-    t_theirs, n_theirs, how_theirs = cpu_at(args.target, *theirs_fit)
-    marginal = (theirs["cpu_per_sample_s"] * theirs["c"] ** 2) / (ours["cpu_per_sample_s"] * ours["c"] ** 2)
-    print(f"\nat {100 * args.target:.1f} % relative RMSE:")
-    print(f"  ours         {n_ours:8.1f} samples, {t_ours:8.3f} s CPU ({how_ours})")
-    print(f"  Mandelbulber {n_theirs:8.1f} samples, {t_theirs:8.3f} s CPU ({how_theirs}; whole process)")
-    print(f"  time ratio Mandelbulber / ours: {t_theirs / t_ours:.1f}x (whole process); "
-          f"{marginal:.1f}x from the fits' marginal CPU per sample x c^2 (start-up left out)")
-    print(f"load average at end {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}")
     report = dict(machine=mach, res=[W, H], threads=args.threads, target=args.target, ours=ours,
-                  mandelbulber=theirs, at_target=dict(ours=dict(cpu_s=t_ours, samples=n_ours, how=how_ours),
-                                                      mandelbulber=dict(cpu_s=t_theirs, samples=n_theirs,
-                                                                        how=how_theirs)),
-                  ratio_whole_process=t_theirs / t_ours, ratio_marginal=marginal, load_start=load0, load_end=load1,
-                  date=time.strftime("%Y-%m-%d %H:%M %Z"))
+                  mandelbulber=theirs, load_start=load0, load_end=load1, date=time.strftime("%Y-%m-%d %H:%M %Z"))
+    summarise(report)
+    print(f"load average at end {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}")
     (out / "report.json").write_text(json.dumps(report, indent=1))
 
 
