@@ -78,6 +78,15 @@ def read_png(path):
     return np.asarray(pixels)
 
 
+def read_png_float(path):
+    """PNG of any bit depth -> float32 (H, W, C) in [0, 1], row 0 = top."""
+    buf = oiio.ImageBuf(str(path))
+    pixels = buf.get_pixels(oiio.FLOAT)
+    if pixels is None or buf.has_error:
+        raise RuntimeError(f"cannot read {path}: {buf.geterror()}")
+    return np.asarray(pixels, np.float32)
+
+
 def iou(a, b):
     """Intersection over union of two boolean masks (1 when both are empty)."""
     union = np.sum(a | b)

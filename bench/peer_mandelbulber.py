@@ -13,7 +13,7 @@ API
     is missing (needs root and network access to the Debian mirror).
 
 ``render(fract_path, width, height, threads, out_png, overrides=None,
-timeout=600) -> dict``
+timeout=600, image_format="png") -> dict``
     One headless render; returns ``{"wall_s", "png", "stdout", ...}``.
     Raises ``RuntimeError`` when Mandelbulber2 rejected the settings or did
     not write the image (it exits 0 in both cases, so the exit status tells
@@ -44,6 +44,9 @@ Things Mandelbulber2 does that this module works around
 * A settings file that does not exist is *not* an error for Mandelbulber2
   ("It's not valid Mandelbulber settings file. No header", then the default
   scene); we check for the file ourselves before starting.
+* ``--format png16`` writes a 16-bit RGB PNG (``render(..., image_format="png16")``): the
+  format for measuring noise, where 8 bits would quantise the error.  No ``_alpha.png`` side
+  channel comes with it.
 * The Debian build has no EXR and no TIFF support (``--format exr`` prints
   ``Critical: fileType "exr" not supported!`` and writes nothing; ``--format
   tiff`` additionally segfaults).  For silhouettes use PNG side channels,
@@ -167,18 +170,20 @@ def render(
     out_png,
     overrides=None,
     timeout: float = 600,
+    image_format: str = "png",
 ) -> dict:
     """Render ``fract_path`` headless at ``width``x``height`` into ``out_png``.
 
     Runs::
 
-        mandelbulber2 --nogui --no-cli-color --format png --res WxH \\
+        mandelbulber2 --nogui --no-cli-color --format IMAGE_FORMAT --res WxH \\
             --output OUT_PNG --override "limit_CPU_cores=N#..." FRACT_PATH
 
     with a fresh temporary HOME (removed afterwards) and
     QT_QPA_PLATFORM=offscreen.  ``threads`` sets ``limit_CPU_cores``;
     ``overrides`` adds more ``KEY=VALUE`` pairs (mapping or iterable of
-    strings, e.g. ``SILHOUETTE_OVERRIDES``).
+    strings, e.g. ``SILHOUETTE_OVERRIDES``).  ``image_format`` is ``"png"`` (8-bit RGB) or
+    ``"png16"`` (16-bit RGB); the file name ends in ``.png`` either way.
 
     Returns a dict:
       wall_s     -- wall time of the whole mandelbulber2 process
@@ -198,6 +203,8 @@ def render(
     if not fract.is_file():
         # Mandelbulber would render its default scene and exit 0.
         raise RuntimeError(f"settings file not found: {fract}")
+    if image_format not in ("png", "png16"):
+        raise ValueError(f"image_format must be 'png' or 'png16', not {image_format!r}")
     out = Path(out_png).resolve()
     if out.suffix.lower() != ".png":
         # Mandelbulber appends ".png" to any other name; keep paths predictable.
@@ -206,7 +213,7 @@ def render(
     out.unlink(missing_ok=True)  # so a stale image cannot pass for a new one
 
     cmd = [
-        binary, "--nogui", "--no-cli-color", "--format", "png",
+        binary, "--nogui", "--no-cli-color", "--format", image_format,
         "--res", f"{int(width)}x{int(height)}",
         "--output", str(out),
         "--override", _override_string(threads, overrides),

@@ -16,8 +16,9 @@ Options (after `--` in Blender; `--` is optional with python):
 Each preset is applied as the Fractal Presets menu applies it (script.execute_preset with the
 fractal object active), so the gallery shows the presets' own settings: mu, theta, iterations,
 normals, colour, samples, shadows, ambient occlusion, reflections, fog and the sea. The script adds
-only what a preset does not hold: the camera, the world colour, a sun, and the Standard view
-transform (so that the PNG colours are the rendered values, not a tone-mapped version of them).
+only what a preset does not hold: the camera, the world colour, a sun, the Standard view
+transform (so that the PNG colours are the rendered values, not a tone-mapped version of them) and,
+for the presets in MATERIALS, a Principled material.
 Presets this script has no view for (a preset added later) get a default three-quarter view.
 
 The extension is found or installed as examples/animate_mu.py does: the enabled Unbound if there
@@ -46,8 +47,12 @@ LOOK_MENU = "UNBOUND_MT_look_presets"
 # shown with; a fractal preset holds the object's parameters only.
 LOOKS = {"basilica": "axle_light", "douady_rabbit": "axle_light", "siegel_disk": "axle_light",
          "fig_5_dendrite_in_the_sea": "fig_5_sea", "fig_6_surface_close-up": "fig_6_close-up_fog",
-         "fig_7_theta_110": "fine_occlusion", "quaternion_twist": "fine_occlusion"}
+         "fig_7_theta_110": "fine_occlusion", "quaternion_twist": "fine_occlusion",
+         "mandelbulb_power_8": "path_traced"}
 DEFAULT_LOOK = "ambient_occlusion"
+# A Principled BSDF (Object.unbound.material) for the presets shown physically lit: the path_traced
+# look (global illumination, the World as a light, no axle light) and a metal that mirrors the sky.
+MATERIALS = {"mandelbulb_power_8": dict(base_color=(0.9, 0.62, 0.35), metallic=1.0, roughness=0.35)}
 
 # Per preset (file name without .py): the camera (location, target, focal length in mm), the sun
 # (the direction it shines toward and its strength in W/m^2, as in Cycles; None: no sun) and the
@@ -79,6 +84,9 @@ VIEWS = {
     # The cubic locus: (Re a, Im a, Re b) at Im b = 0, cut to |(a, b)| <= extent.
     "cubic_connectedness_locus": dict(camera=((-2.2, -3.4, 2.0), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
     "cubic_locus_c_plus": dict(camera=((-2.6, -4.0, 2.4), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
+    # Physically lit (MATERIALS): the light sky is the World light, the sun from the side.
+    "mandelbulb_power_8": dict(camera=((-1.75, -3.3, 2.6), (0.0, 0.0, 0.0), 50.0), sun=((0.57, -0.3, -0.77), 3.0),
+                               world=(0.35, 0.42, 0.55)),
     "quaternion_mandelbrot": dict(camera=((-1.0, -4.8, 2.5), (-0.6, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
     # IFS attractors in the cube [-1, 1]^3 (the Koch curve spans X, its spikes rise along Z and Y).
     "sierpinski_tetrahedron": dict(camera=((-2.4, -4.2, 1.9), (0.0, 0.0, 0.0), 50.0), sun=SIDE_SUN, world=DARK),
@@ -145,7 +153,20 @@ def build_scene(preset, view, width, height):
     look = os.path.join(folder, LOOKS.get(os.path.splitext(os.path.basename(preset))[0], DEFAULT_LOOK) + ".py")
     if bpy.ops.script.execute_preset(filepath=look, menu_idname=LOOK_MENU) != {'FINISHED'}:
         sys.exit("gallery: could not apply the look preset %s" % look)
+    if ob.name in MATERIALS:
+        ob.unbound.material = principled_material(ob.name, **MATERIALS[ob.name])
     return scene, ob
+
+
+def principled_material(name, base_color, metallic, roughness):
+    """A material whose output is a Principled BSDF with these inputs (the rest Blender's defaults)."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    bsdf = next(n for n in mat.node_tree.nodes if n.type == 'BSDF_PRINCIPLED')
+    bsdf.inputs["Base Color"].default_value = (*base_color, 1.0)
+    bsdf.inputs["Metallic"].default_value = metallic
+    bsdf.inputs["Roughness"].default_value = roughness
+    return mat
 
 
 def render_png(scene, path):

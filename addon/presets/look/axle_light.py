@@ -6,6 +6,7 @@ scene.unbound.axle_light = 1.0
 scene.unbound.use_scene_lights = True
 scene.unbound.ambient = (0.0, 0.0, 0.0)
 scene.unbound.shadows = 'HARD'
+scene.unbound.use_gi = False
 scene.unbound.ao_strength = 0.0
 scene.unbound.ao_distance = 0.5
 scene.unbound.ao_samples = 5

@@ -6,6 +6,7 @@ scene.unbound.axle_light = 0.8
 scene.unbound.use_scene_lights = True
 scene.unbound.ambient = (0.08, 0.09, 0.12)
 scene.unbound.shadows = 'HARD'
+scene.unbound.use_gi = False
 scene.unbound.ao_strength = 0.6
 scene.unbound.ao_distance = 0.15
 scene.unbound.ao_samples = 5

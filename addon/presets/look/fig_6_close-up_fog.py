@@ -6,6 +6,7 @@ scene.unbound.axle_light = 1.0
 scene.unbound.use_scene_lights = True
 scene.unbound.ambient = (0.06, 0.06, 0.07)
 scene.unbound.shadows = 'HARD'
+scene.unbound.use_gi = False
 scene.unbound.ao_strength = 0.8
 scene.unbound.ao_distance = 0.03
 scene.unbound.ao_samples = 5

@@ -158,23 +158,33 @@ def setup_compositing_writes_pass_file(S, mod):
     S.report(files=files, channels=sorted(S.read_exr(os.path.join(out, files[0]))))
 
 
-def denoise_lowers_the_error(S, mod, samples=1, reference_samples=256):
+def denoise_lowers_the_error(S, mod, samples=1, reference_samples=256, gi=False):
     """Set Up Compositing (Denoise on) on a noisy render (soft shadows, ambient occlusion with
-    few rays, `samples` samples): the multilayer pass file holds the image and the Denoised one;
-    both against a `reference_samples` render of the same scene (RMSE over the frame)."""
+    few rays, `samples` samples; with `gi`, path-traced instead: Global Illumination in a uniform
+    World, whose light and bounces are Monte-Carlo noise): the multilayer pass file holds the
+    image and the Denoised one; both against a `reference_samples` render of the same scene
+    (RMSE over the frame)."""
     import time
     scene = S.empty_scene(96, 72)
     S.add_camera(scene, location=(1.5, -6.0, 3.0), target=(0.0, 0.0, -0.6))
     S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0))   # the unit ball on a calm sea: smooth surfaces, so
-    # what differs from the reference is the noise of the soft shadow and the occlusion
+    # what differs from the reference is the noise of the soft shadow and the occlusion (or the paths)
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
     sun.data.angle, sun.data.energy = 1.2, 2.0
     sun.rotation_euler = (0.6, 0.3, 0.4)
     scene.collection.objects.link(sun)
     u = scene.unbound
-    u.shadows, u.ao_strength, u.ao_samples, u.ao_distance = 'SOFT', 1.0, 1, 0.5
-    u.ambient = (0.3, 0.3, 0.3)
+    u.shadows = 'SOFT'
     u.use_sea, u.sea_height, u.sea_amplitude, u.sea_reflectivity = True, -1.0, 0.0, 0.0
+    if gi:
+        world = bpy.data.worlds.new("Uniform")
+        world.use_nodes = True
+        world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.3, 0.3, 1.0)
+        scene.world = world
+        u.axle_light, u.use_gi = 0.0, True
+    else:
+        u.ao_strength, u.ao_samples, u.ao_distance = 1.0, 1, 0.5
+        u.ambient = (0.3, 0.3, 0.3)
     out = os.path.join(os.environ["UNBOUND_TEST_TMP"], "denoise") + "/"
     assert bpy.ops.scene.unbound_setup_compositing(directory=out) == {'FINISHED'}
     tree = mod.utils.compositor_tree(scene)

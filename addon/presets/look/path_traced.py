@@ -1,0 +1,29 @@
+import bpy
+scene = bpy.context.scene
+
+scene.unbound.samples = 32
+scene.unbound.axle_light = 0.0
+scene.unbound.use_scene_lights = True
+scene.unbound.ambient = (0.0, 0.0, 0.0)
+scene.unbound.shadows = 'SOFT'
+scene.unbound.use_world_light = True
+scene.unbound.world_samples = 1
+scene.unbound.use_gi = True
+scene.unbound.max_bounces = 12
+scene.unbound.diffuse_bounces = 4
+scene.unbound.glossy_bounces = 4
+scene.unbound.ao_strength = 0.0
+scene.unbound.ao_distance = 0.5
+scene.unbound.ao_samples = 5
+scene.unbound.reflection_depth = 0
+scene.unbound.fog_density = 0.0
+scene.unbound.fog_use_world = True
+scene.unbound.fog_color = (0.5, 0.5, 0.5)
+scene.unbound.glow_strength = 0.0
+scene.unbound.glow_color = (0.4, 0.6, 1.0)
+scene.unbound.use_sea = False
+scene.unbound.sea_height = -1.0
+scene.unbound.sea_wavelength = 0.25
+scene.unbound.sea_amplitude = 0.01
+scene.unbound.sea_color = (0.1, 0.25, 0.4)
+scene.unbound.sea_reflectivity = 0.5
