@@ -584,6 +584,20 @@ static inline void to_quaternion(const ub_object *o, const double p[3], float q[
     }
 }
 
+/* The quaternions of object-space points xyz[base .. base + n) (float32 x, y, z each), one per lane;
+ * the lanes past n repeat the last point (an entry point's last, partial packet). */
+static inline void point_packet(const ub_object *o, const float *xyz, size_t base, size_t n, float q[4][UB_LANES])
+{
+    for (size_t l = 0; l < UB_LANES; l++) {
+        const float *p = xyz + 3 * (base + (l < n ? l : n - 1));
+        double pd[3] = {p[0], p[1], p[2]};
+        float ql[4];
+        to_quaternion(o, pd, ql);
+        for (int k = 0; k < 4; k++)
+            q[k][l] = ql[k];
+    }
+}
+
 static inline void world_to_object_point(const ub_object *o, const double p[3], double out[3])
 {
     for (int i = 0; i < 3; i++) {

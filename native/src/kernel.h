@@ -1013,14 +1013,7 @@ void UB_ENTRY(ub_estimate)(const ub_object *o, const float *xyz, size_t count, f
     for (size_t base = 0; base < count; base += UB_LANES) {
         float q[4][UB_LANES];
         size_t n = count - base < UB_LANES ? count - base : UB_LANES;
-        for (size_t l = 0; l < UB_LANES; l++) {
-            const float *p = xyz + 3 * (base + (l < n ? l : n - 1));
-            double pd[3] = {p[0], p[1], p[2]};
-            float ql[4];
-            to_quaternion(o, pd, ql);
-            for (int k = 0; k < 4; k++)
-                q[k][l] = ql[k];
-        }
+        point_packet(o, xyz, base, n, q);
         vf dist, it;
         de(&dp, m_from_bits(UB_ALL_LANES), v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &dist, &it);
         float db[UB_LANES], ib[UB_LANES];
@@ -1083,14 +1076,7 @@ void UB_ENTRY(ub_zoom_probe)(const ub_object *o, int path, int want, int scalar,
     for (size_t base = 0; base < count; base += UB_LANES) {
         float q[4][UB_LANES];
         size_t n = count - base < UB_LANES ? count - base : UB_LANES;
-        for (size_t l = 0; l < UB_LANES; l++) {
-            const float *p = xyz + 3 * (base + (l < n ? l : n - 1));
-            double pd[3] = {p[0], p[1], p[2]};
-            float ql[4];
-            to_quaternion(o, pd, ql);
-            for (int k = 0; k < 4; k++)
-                q[k][l] = ql[k];
-        }
+        point_packet(o, xyz, base, n, q);
         zoom_out r;
         if (scalar)
             zoom_lanes_scalar(o, path, (1 << n) - 1, q, want, &r);

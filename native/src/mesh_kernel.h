@@ -24,14 +24,7 @@ void UB_ENTRY(ub_mesh_attributes)(const ub_object *o, const float *xyz, size_t c
     for (size_t base = 0; base < count; base += UB_LANES) {
         size_t n = count - base < UB_LANES ? count - base : UB_LANES;
         float q[4][UB_LANES];
-        for (size_t l = 0; l < UB_LANES; l++) {
-            const float *p = xyz + 3 * (base + (l < n ? l : n - 1));
-            double pd[3] = {p[0], p[1], p[2]};
-            float ql[4];
-            to_quaternion(o, pd, ql);
-            for (int k = 0; k < 4; k++)
-                q[k][l] = ql[k];
-        }
+        point_packet(o, xyz, base, n, q);
         vf dist, it;
         ub_de_extra x;
         de_ext(&dp, m_from_bits(UB_ALL_LANES), v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), UB_WANT_TRAP, &dist, &it, &x);
