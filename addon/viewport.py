@@ -51,7 +51,7 @@ def scene_part(depsgraph):
         return dict(objects=None, shading=None, error=str(exc))
     # The core checks the values when it renders them, and its messages name the object.
     options = export.render_options(scene, bake_world=False)
-    options["world"] = options["world"] if options["world"] is None else WorldMap(options["world"])
+    options["world"] = WorldMap.of(options["world"])
     return dict(objects=objects, shading=shading, start_divisor=int(s.viewport_start_divisor),
                 time_limit=s.viewport_time_limit, error=None, **options)
 
@@ -59,10 +59,21 @@ def scene_part(depsgraph):
 class WorldMap:
     """The World's map in a Request: compared by a digest of its texels (a numpy array's repr
     elides the middle of large arrays, and Session.update compares requests by repr)."""
+    _last = None  # the latest one: a baked map is the same read-only array at every draw
 
     def __init__(self, texels):
         self.texels = texels
         self.digest = hashlib.sha1(np.ascontiguousarray(texels).tobytes()).hexdigest()
+
+    @classmethod
+    def of(cls, texels):
+        """The WorldMap of `texels` (None: None); the digest of a baked map (up to 4096 x 2048
+        texels) is taken once, not at each redraw."""
+        if texels is None:
+            return None
+        if cls._last is None or cls._last.texels is not texels:
+            cls._last = cls(texels)
+        return cls._last
 
     def __repr__(self):
         return "WorldMap(%s, %s)" % (self.texels.shape, self.digest)
