@@ -498,14 +498,20 @@ def world_color(scene):
     return (color[0] * strength, color[1] * strength, color[2] * strength)
 
 
-def background_node(world):
-    """The Background node feeding the active World Output of a world that uses nodes, or None
-    (world_color then reads the world's own colour; the World tab shows the one it reads)."""
+def world_surface_node(world):
+    """The node feeding the active World Output's Surface of a world that uses nodes, or None."""
     if not (world.use_nodes and world.node_tree):
         return None
     out = next((n for n in world.node_tree.nodes if n.type == 'OUTPUT_WORLD' and n.is_active_output), None)
     link = out and next(iter(out.inputs["Surface"].links), None)
-    return link.from_node if link and link.from_node.type == 'BACKGROUND' else None
+    return link.from_node if link else None
+
+
+def background_node(world):
+    """The Background node feeding the active World Output of a world that uses nodes, or None
+    (world_color then reads the world's own colour; the World tab shows the one it reads)."""
+    node = world_surface_node(world)
+    return node if node is not None and node.type == 'BACKGROUND' else None
 
 
 def background(scene):

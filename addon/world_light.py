@@ -21,7 +21,7 @@ import tempfile
 import bpy
 import numpy as np
 
-from .export import RenderError, background_node
+from .export import RenderError, world_surface_node
 
 BAKE_SCRIPT = pathlib.Path(__file__).with_name("world_bake.py")
 BAKE_TIMEOUT_S = 600
@@ -59,11 +59,10 @@ def constant_radiance(world):
     """RGB of a World that is one colour everywhere, else None."""
     if not (world.use_nodes and world.node_tree):
         return tuple(world.color)
-    out = next((n for n in world.node_tree.nodes if n.type == 'OUTPUT_WORLD' and n.is_active_output), None)
-    if out is None or not out.inputs["Surface"].is_linked:
+    bg = world_surface_node(world)
+    if bg is None:
         return (0.0, 0.0, 0.0)  # what Cycles shows: no surface shader, a black world
-    bg = background_node(world)
-    if bg is None or bg.mute or bg.inputs["Color"].is_linked or bg.inputs["Strength"].is_linked:
+    if bg.type != 'BACKGROUND' or bg.mute or bg.inputs["Color"].is_linked or bg.inputs["Strength"].is_linked:
         return None
     color, strength = bg.inputs["Color"].default_value, bg.inputs["Strength"].default_value
     return tuple(c * strength for c in color[:3])
