@@ -160,10 +160,8 @@ def bake_world(world, resolution, samples):
         # Images painted or generated in this session reach the subprocess only when packed.
         bpy.data.libraries.write(blend, {world}, path_remap='ABSOLUTE', fake_user=True, compress=False)
         cmd = bake_command([blend, world.name, out, str(int(resolution)), str(int(samples))])
-        env = dict(os.environ)
         try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=BAKE_TIMEOUT_S, env=env,
-                                  cwd=tmp)
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=BAKE_TIMEOUT_S, cwd=tmp)
         except (OSError, subprocess.TimeoutExpired) as exc:
             raise BakeError("baking the World '%s' with Cycles failed: %s" % (world.name, exc)) from None
         if proc.returncode != 0 or not os.path.isfile(out):
