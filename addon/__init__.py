@@ -1,14 +1,14 @@
 """Unbound: ray-marched 3-D deterministic fractals (quaternion Julia sets first) as a Blender
 render engine, after Hart, Sandin & Kauffman, "Ray tracing deterministic 3-D fractals" (1989)."""
-# Import order keeps reloading safe: utils -> passes -> composite -> export -> properties -> engine -> viewport -> operators -> ui -> convert -> proxy.
+# Import order keeps reloading safe: utils -> passes -> composite -> export -> motion_blur -> properties -> engine -> viewport -> operators -> ui -> convert -> proxy.
 if "bpy" in locals():
     import importlib
-    for _mod in (utils, passes, composite, export, properties, engine, viewport, operators, ui, convert, proxy):  # noqa: F821
+    for _mod in (utils, passes, composite, export, motion_blur, properties, engine, viewport, operators, ui, convert, proxy):  # noqa: F821
         importlib.reload(_mod)
 
 import bpy
 
-from . import utils, passes, composite, export, properties, engine, viewport, operators, ui, convert, proxy  # noqa: E402
+from . import utils, passes, composite, export, motion_blur, properties, engine, viewport, operators, ui, convert, proxy  # noqa: E402
 
 
 class UnboundRenderEngine(bpy.types.RenderEngine):
