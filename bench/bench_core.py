@@ -69,22 +69,13 @@ def write_png(path, img):
     out.close()
 
 
-def read_png(path):
-    """8-bit PNG -> uint8 (H, W, C), row 0 = top."""
+def read_png(path, as_float=False):
+    """8-bit PNG -> uint8 (H, W, C); as_float: a PNG of any bit depth -> float32 in [0, 1]. Row 0 = top."""
     buf = oiio.ImageBuf(str(path))
-    pixels = buf.get_pixels(oiio.UINT8)
+    pixels = buf.get_pixels(oiio.FLOAT if as_float else oiio.UINT8)
     if pixels is None or buf.has_error:
         raise RuntimeError(f"cannot read {path}: {buf.geterror()}")
-    return np.asarray(pixels)
-
-
-def read_png_float(path):
-    """PNG of any bit depth -> float32 (H, W, C) in [0, 1], row 0 = top."""
-    buf = oiio.ImageBuf(str(path))
-    pixels = buf.get_pixels(oiio.FLOAT)
-    if pixels is None or buf.has_error:
-        raise RuntimeError(f"cannot read {path}: {buf.geterror()}")
-    return np.asarray(pixels, np.float32)
+    return np.asarray(pixels, np.float32) if as_float else np.asarray(pixels)
 
 
 def iou(a, b):

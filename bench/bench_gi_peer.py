@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 import bench_core as bc  # also puts the built wheel (build/wheel) on sys.path
-from bench_core import OBJECT, machine, parse_res, read_png_float, to_u8, write_png
+from bench_core import OBJECT, machine, parse_res, read_png, to_u8, write_png
 from bench_effects import SUN
 
 uc = bc.uc
@@ -102,14 +102,14 @@ def run_peer(peer, fract, samples, width, height, threads, out):
     png = out / f"peer_{samples}.png"
     r = peer.render(fract, width, height, threads, png, overrides=peer_overrides(samples), image_format="png16",
                     timeout=1800)
-    return read_png_float(png)[..., :3], r["cpu_s"], r["wall_s"]
+    return read_png(png, as_float=True)[..., :3], r["cpu_s"], r["wall_s"]
 
 
 def peer_silhouette(peer, fract, width, height, threads, out):
     """Mandelbulber's object mask: its alpha side channel of a plain (one-sample) render."""
     png = out / "peer_silhouette.png"
     peer.render(fract, width, height, threads, png, overrides=peer.SILHOUETTE_OVERRIDES)
-    return read_png_float(png.with_name("peer_silhouette_alpha.png"))[..., 0] > 0.5
+    return read_png(png.with_name("peer_silhouette_alpha.png"), as_float=True)[..., 0] > 0.5
 
 
 def relative_rmse(image, reference, mask):

@@ -41,6 +41,19 @@ def check_script(ref, args):
     return text
 
 
+def erode(mask, n):
+    """mask less the pixels within n steps (4-neighbours) of a False pixel; the image's border is
+    no such pixel."""
+    for _ in range(n):
+        m = mask.copy()
+        m[1:] &= mask[:-1]
+        m[:-1] &= mask[1:]
+        m[:, 1:] &= mask[:, :-1]
+        m[:, :-1] &= mask[:, 1:]
+        mask = m
+    return mask
+
+
 def as_lists(value):
     """value as JSON gives it back: tuples as lists (the scripts receive lists)."""
     if isinstance(value, (list, tuple)):

@@ -6,20 +6,11 @@ samples), and colour bleeding: the floor just in front of the ball turns red as 
 over green within 3 % of Cycles'), and redder than without GI."""
 import numpy as np
 
+from conftest import erode
+
 SETUP = dict(size=(96, 72), ball_color=(0.8, 0.05, 0.05), floor_color=(0.8, 0.8, 0.8),
              world_color=(0.25, 0.3, 0.35), sun_toward=(0.25, -0.6, 0.75), sun_energy=3.0, bounces=(8, 4, 4),
              samples=64, world_samples=1, cycles_samples=256)
-
-
-def erode(mask, n):
-    for _ in range(n):
-        m = mask.copy()
-        m[1:] &= mask[:-1]
-        m[:-1] &= mask[1:]
-        m[:, 1:] &= mask[:, :-1]
-        m[:, :-1] &= mask[:, 1:]
-        mask = m
-    return mask
 
 
 def regions(ball_alpha):

@@ -87,6 +87,15 @@ KIND_OBJECTS = {
 }
 
 
+# The unit ball (mu = 0) marched to a fixed threshold: the scenes with closed-form answers.
+UNIT_BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode="fixed", epsilon=1e-4)
+
+
+def uniform_world(radiance):
+    """A world map (8 x 16 texels) of one radiance."""
+    return np.broadcast_to(np.asarray(radiance, np.float32), (8, 16, 3)).copy()
+
+
 def make_camera(width=64, height=48, eye=(0.4, -3.0, 0.9), target=(0.0, 0.0, 0.0), fov_y=0.7,
                 ortho_height=None, clip=(0.1, 100.0)):
     matrix = uc.look_at(eye, target, (0.0, 0.0, 1.0))
@@ -146,6 +155,15 @@ def sphere_hits(origin, direction, center=(0.0, 0.0, 0.0), radius=1.0):
     t = np.where(disc >= 0, -b - np.sqrt(np.maximum(disc, 0)), np.nan)
     closest = np.sqrt(np.maximum(np.sum(rel * rel, -1) - b * b, 0))
     return t, closest
+
+
+def ball_pixels(camera, margin=0.9):
+    """(inner, outer, direction): the pixels whose float64 ray passes within `margin` of the unit
+    ball's centre (inside its silhouette), those passing beyond 1.05 (outside it), and the rays'
+    directions (H, W, 3)."""
+    origin, direction, _ = rays_float64(camera)
+    _, closest = sphere_hits(origin, direction)
+    return closest < margin, closest > 1.05, direction
 
 
 @pytest.fixture

@@ -16,10 +16,8 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import HEAVY_SHADING, KIND_OBJECTS, alloc_passes, make_camera, render
+from conftest import HEAVY_SHADING, KIND_OBJECTS, UNIT_BALL as BALL, alloc_passes, make_camera, render
 from test_panoramic import TURN, TURN_MIRRORBALL, pano_camera
-
-BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode="fixed", epsilon=1e-4)
 LENS = dict(aperture_size=0.15, focus_distance=2.2, aperture_blades=0, aperture_rotation=0.0, aperture_ratio=1.0)
 SHAPES = {
     "disk": {},

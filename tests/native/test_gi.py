@@ -9,22 +9,12 @@ ball turns red."""
 import numpy as np
 import pytest
 
-from conftest import KERNELS, make_camera, rays_float64, render, sphere_hits
+from conftest import KERNELS, UNIT_BALL as BALL, ball_pixels, make_camera, rays_float64, render, sphere_hits, \
+    uniform_world
 
-BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode="fixed", epsilon=1e-4)
 RED = (0.8, 0.05, 0.05)
 FLOOR = dict(use_sea=True, sea_height=-1.0, sea_amplitude=0.0, sea_color=(0.8, 0.8, 0.8), sea_reflectivity=0.0)
 SUN = dict(type="sun", direction=(0.3, 0.2, -1.0), color=(3.0, 3.0, 3.0))
-
-
-def uniform_world(L):
-    return np.broadcast_to(np.asarray(L, np.float32), (8, 16, 3)).copy()
-
-
-def ball_inner(cam, margin=0.9):
-    origin, direction, _ = rays_float64(cam)
-    _, closest = sphere_hits(origin, direction)
-    return closest < margin
 
 
 def within_standard_errors(values, expected, sigmas=4.0):
@@ -45,7 +35,7 @@ def test_white_furnace_lambert_ball_is_rho_L_with_gi():
                        background=(0, 0, 0, 1),
                        shading=dict(axle_light=0.0, samples=16, world_samples=2, use_gi=True, max_bounces=64,
                                     diffuse_bounces=64))
-    got = passes["combined"][..., :3][ball_inner(cam)].astype(np.float64)
+    got = passes["combined"][..., :3][ball_pixels(cam)[0]].astype(np.float64)
     ok, info = within_standard_errors(got, rho * L)
     assert ok, info
     assert np.all(np.abs(got.mean(0) / (rho * L) - 1) < 0.01), got.mean(0) / (rho * L)
@@ -63,7 +53,7 @@ def test_white_furnace_material_ball_three_estimators_agree(metallic, roughness)
     cam = make_camera(40, 30)
     mat = dict(BALL, use_material=True, material_base_color=(0.8, 0.3, 0.2), material_metallic=metallic,
                material_roughness=roughness)
-    inner = ball_inner(cam)
+    inner = ball_pixels(cam)[0]
     got = []
     for gi, world_samples in ((False, 2), (True, 2), (True, 0)):
         passes, _ = render(cam, [mat], names=["combined"], world=uniform_world((1.0, 1.0, 1.0)),
@@ -84,13 +74,19 @@ def floor_scene(cam, gi, samples=16, **extra):
     return passes["combined"][..., :3].astype(np.float64)
 
 
-def floor_near_ball(cam):
-    """Floor pixels whose point lies within 0.8 of the ball's contact point (0, 0, -1), outside the
-    ball's silhouette."""
+def floor_hits(cam):
+    """Each pixel's float64 ray against the floor z = -1: (t, the point there, the ray's closest
+    approach to the ball's centre)."""
     origin, direction, _ = rays_float64(cam)
     _, closest = sphere_hits(origin, direction)
     t = (-1.0 - origin[..., 2]) / direction[..., 2]
-    p = origin + t[..., None] * direction
+    return t, origin + t[..., None] * direction, closest
+
+
+def floor_near_ball(cam):
+    """Floor pixels whose point lies within 0.8 of the ball's contact point (0, 0, -1), outside the
+    ball's silhouette."""
+    t, p, closest = floor_hits(cam)
     near = np.hypot(p[..., 0], p[..., 1]) < 0.8
     return near & (t > 0) & (closest > 1.05)
 
@@ -160,10 +156,7 @@ def test_emission_lights_the_floor_as_a_glowing_sphere_does():
     ball = dict(BALL, use_material=True, material_base_color=(0.0, 0.0, 0.0), material_emission=(Le,) * 3,
                 material_metallic=0.0, material_ior=1.0)
     shading = dict(FLOOR, sea_color=(rho,) * 3, axle_light=0.0, samples=128, world_samples=1, use_gi=True)
-    origin, direction, _ = rays_float64(cam)
-    _, closest = sphere_hits(origin, direction)
-    t = (-1.0 - origin[..., 2]) / direction[..., 2]
-    p = origin + t[..., None] * direction
+    t, p, closest = floor_hits(cam)
     d = np.linalg.norm(p, axis=-1)
     floor = (t > 0) & (closest > 1.05) & (d < 3.0)
     expected = rho * Le / d[floor] ** 3

@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 
 import unbound_core as uc
-from conftest import KERNELS, make_camera, rays_float64, render, sphere_hits
+from conftest import KERNELS, UNIT_BALL as BALL, ball_pixels, make_camera, render, uniform_world
 
-BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode="fixed", epsilon=1e-4)
 NO_PAPER_LIGHT = dict(axle_light=0.0)
 
 
@@ -14,12 +13,6 @@ def env_direction(u, v):
     """Cycles' Environment Texture mapping, inverse: u = atan2(-y, x) / 2 pi + 0.5, v = latitude / pi + 0.5."""
     phi, lat = 2 * np.pi * (u - 0.5), np.pi * (v - 0.5)
     return np.stack(np.broadcast_arrays(np.cos(phi) * np.cos(lat), -np.sin(phi) * np.cos(lat), np.sin(lat)), -1)
-
-
-def ball_pixels(cam, margin=0.9):
-    origin, direction, _ = rays_float64(cam)
-    t, closest = sphere_hits(origin, direction)
-    return closest < margin, closest > 1.05, direction
 
 
 def test_uniform_world_lights_a_ball_to_albedo_times_radiance():
@@ -30,7 +23,7 @@ def test_uniform_world_lights_a_ball_to_albedo_times_radiance():
     probability delta (1e-3 here); the mean over the pixels within 4 rho L / sqrt(K n)."""
     cam = make_camera(48, 36)
     rho, L = np.array([0.5, 0.8, 0.25]), np.array([2.0, 1.0, 4.0])
-    world = np.broadcast_to(L.astype(np.float32), (8, 16, 3)).copy()
+    world = uniform_world(L)
     samples, world_samples = 16, 16
     passes, _ = render(cam, [dict(BALL, color=tuple(rho))], names=["combined", "diffuse"], world=world,
                        background=(0, 0, 0, 1), shading=dict(NO_PAPER_LIGHT, samples=samples,

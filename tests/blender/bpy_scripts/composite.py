@@ -6,6 +6,7 @@ import numpy as np
 
 # Object indices of the reference render (Cycles' IndexOB pass): which surface a pixel shows.
 BALL_INDEX, FRONT_INDEX, BACK_INDEX = 1, 2, 3
+CYCLES_SAMPLES = 16
 
 
 def _cube(name, location, size, index):
@@ -22,8 +23,8 @@ def _scene(S, width, height):
     scene = S.empty_scene(width, height, "UNBOUND")
     S.add_camera(scene, location=(0.0, -4.0, 0.6), target=(0.0, 0.0, 0.0), lens=35.0)
     scene.render.film_transparent = True
-    _cycles_settings(scene)
-    S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
+    S.cycles_cpu(scene, CYCLES_SAMPLES)
+    S.unit_ball()
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
     sun.data.energy = 3.0
     sun.rotation_euler = (0.6, 0.2, 0.4)
@@ -31,13 +32,6 @@ def _scene(S, width, height):
     _cube("Front", (0.6, -1.3, -0.35), 0.8, FRONT_INDEX)
     _cube("Back", (-1.1, 1.4, 0.4), 1.4, BACK_INDEX)
     return scene
-
-
-def _cycles_settings(scene):
-    scene.cycles.device = 'CPU'
-    scene.cycles.samples = 16
-    scene.cycles.use_denoising = False
-    scene.cycles.use_adaptive_sampling = False
 
 
 def _file_output(tree, directory, sockets):
@@ -69,12 +63,12 @@ def composite_matches_cycles(S, mod, width=160, height=120):
     scene = _scene(S, width, height)
     assert bpy.ops.scene.unbound_composite_with_cycles() == {'FINISHED'}
     copy = bpy.data.scenes[scene.name + " Cycles"]
-    _cycles_settings(copy)
+    S.cycles_cpu(copy, CYCLES_SAMPLES)
     tree = mod.utils.compositor_tree(scene)
     zc = tree.nodes["Unbound+Cycles Z Combine"]
     meshes = tree.nodes["Unbound+Cycles Cycles"]
     fractal = tree.nodes["Unbound+Cycles Unbound"]
-    tmp = S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"])
+    tmp = S.tmp_dir()
     # The Z Combine's result and each scene's own render (to see which surface is in front).
     _file_output(tree, str(tmp / "combined"), {
         "Composite": (zc.outputs[0], 'RGBA'), "CompositeDepth": (zc.outputs[1], 'FLOAT'),
@@ -100,20 +94,17 @@ def composite_matches_cycles(S, mod, width=160, height=120):
         out[layer.lower() + "_depth"] = channel(layer + "Depth", "")
 
     # The reference: Cycles alone, the ball a fine smooth UV sphere of radius 1.
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
-    sphere = bpy.context.object
-    sphere.pass_index = BALL_INDEX
-    bpy.ops.object.shade_smooth()
+    S.uv_sphere().pass_index = BALL_INDEX
     scene.render.engine = 'CYCLES'
     scene.render.use_compositing = False
-    _cycles_settings(scene)
+    S.cycles_cpu(scene, CYCLES_SAMPLES)
     layer = scene.view_layers[0]
     layer.use_pass_z = True
     layer.use_pass_object_index = True
     started = time.perf_counter()
     px = S.render_to_exr(scene, "reference.exr")
     reference_seconds = time.perf_counter() - started
-    out.update(reference_rgba=np.stack([px["ViewLayer.Combined." + c] for c in "RGBA"], axis=-1),
+    out.update(reference_rgba=S.combined(px),
                reference_depth=px["ViewLayer.Depth.Z"],
                reference_index=px.get("ViewLayer.IndexOB.X", px.get("ViewLayer.Object Index.X")))  # 4.x, 5.x
     np.savez(tmp / "renders.npz", **out)
@@ -126,8 +117,7 @@ def unrendered_warning(S, mod, set_up, add_to_scene_collection=False):
     scene = _scene(S, 40, 30)
     if set_up:
         assert bpy.ops.scene.unbound_composite_with_cycles() == {'FINISHED'}
-        _cycles_settings(bpy.data.scenes[scene.name + " Cycles"])
-        bpy.data.scenes[scene.name + " Cycles"].cycles.samples = 1
+        S.cycles_cpu(bpy.data.scenes[scene.name + " Cycles"], 1)
     if add_to_scene_collection:
         _cube("Late", (0.0, 2.5, 0.0), 0.5, 4)  # added after the set-up: not in the Cycles copy
     outcome, written = S.attempt(scene)
@@ -165,11 +155,11 @@ def refresh(S, mod):
 def _render_scene(S, scene, name):
     """F12 of `scene` (not necessarily the context's), every pass in a 32-bit multilayer EXR."""
     S.exr_output(scene)
-    path = S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / name
+    path = S.tmp_dir() / name
     scene.render.filepath = str(path)
     bpy.ops.render.render(write_still=True, scene=scene.name)
     px = S.read_exr(path)
-    return (np.stack([px["ViewLayer.Combined." + c] for c in "RGBA"], axis=-1),
+    return (S.combined(px),
             np.stack([px["ViewLayer.Position." + c] for c in "XYZ"], axis=-1))
 
 
@@ -190,21 +180,6 @@ def _shadow_proxy_facts(scene, copy):
     return facts
 
 
-def _matte(name):
-    """A Diffuse BSDF alone: lit by a sun, the same in every direction (5.x's default surface is
-    not: it has a specular layer)."""
-    material = bpy.data.materials.new(name)
-    if material.node_tree is None:  # 4.x; 5.x makes it with the material (use_nodes is deprecated)
-        material.use_nodes = True
-    nodes = material.node_tree.nodes
-    for node in [n for n in nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-        nodes.remove(node)
-    output = next(n for n in nodes if n.bl_idname == "ShaderNodeOutputMaterial")
-    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
-    material.node_tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
-    return material
-
-
 def fractal_shadow(S, mod, width=120, height=90, resolution=128, samples=4):
     """The unit ball (mu = 0) above a plane lit by a sun, Composite with Cycles with Fractal
     Shadows on (run twice), then off, then off with a 256 x 128 smooth UV sphere of radius 1
@@ -212,18 +187,16 @@ def fractal_shadow(S, mod, width=120, height=90, resolution=128, samples=4):
     and Position pass each time, for the test to compare. Cycles: direct light only."""
     scene = S.empty_scene(width, height, "UNBOUND")
     S.add_camera(scene, location=(0.0, -3.5, 2.0), target=(-0.45, 0.65, -1.5), lens=35.0)
-    ball = S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
+    ball = S.unit_ball()
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
     sun.data.energy, sun.data.angle = 3.0, 0.0  # a hard shadow: its outline is the ball's exactly
     sun.rotation_euler = (0.5, 0.0, 0.6)
     scene.collection.objects.link(sun)
     bpy.ops.mesh.primitive_plane_add(size=16.0, location=(0.0, 0.0, -1.5))
-    bpy.context.object.data.materials.append(_matte("Matte"))
+    bpy.context.object.data.materials.append(S.diffuse_material("Matte"))
     assert bpy.ops.scene.unbound_composite_with_cycles(shadow_resolution=resolution) == {'FINISHED'}
     copy = bpy.data.scenes[scene.name + " Cycles"]
-    _cycles_settings(copy)
-    copy.cycles.samples = samples
-    copy.cycles.max_bounces = 0  # direct light: a lit diffuse plane is uniform, a shadowed one black
+    S.cycles_cpu(copy, samples, max_bounces=0)  # direct light: a lit diffuse plane is uniform, a shadowed one black
     copy.view_layers[0].use_pass_position = True
     first = _shadow_proxy_facts(scene, copy)
     meshes_after_one_run = len(bpy.data.meshes)
@@ -250,9 +223,7 @@ def fractal_shadow(S, mod, width=120, height=90, resolution=128, samples=4):
     meshes_off = len(bpy.data.meshes)
     off = _render_scene(S, copy, "off.exr")
 
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
-    sphere = bpy.context.object
-    bpy.ops.object.shade_smooth()
+    sphere = S.uv_sphere()
     for collection in list(sphere.users_collection):
         collection.objects.unlink(sphere)
     copy.collection.objects.link(sphere)  # in the Cycles scene only, as the stand-in
@@ -262,7 +233,7 @@ def fractal_shadow(S, mod, width=120, height=90, resolution=128, samples=4):
     out = {}
     for key, (rgba, position) in (("on", on), ("off", off), ("sphere", reference)):
         out[key + "_rgba"], out[key + "_position"] = rgba, position
-    np.savez(S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / "shadow.npz", **out)
+    np.savez(S.tmp_dir() / "shadow.npz", **out)
     from mathutils import Vector
     light_travel = sun.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))
     S.report(first=first, second=second, meshes_after_one_run=meshes_after_one_run,

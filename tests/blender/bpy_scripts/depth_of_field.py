@@ -23,16 +23,8 @@ def blurred_ball(S, mod, size, camera, dof, focus_object, cycles_samples, unboun
 
     # Cycles: CPU, no denoising, no adaptive sampling, a one-pixel box filter (Unbound's jitter
     # is uniform over the pixel); no bounces: only the camera rays' coverage matters.
-    scene.cycles.device = 'CPU'
-    scene.cycles.samples = cycles_samples
-    scene.cycles.use_adaptive_sampling = False
-    scene.cycles.use_denoising = False
-    scene.cycles.pixel_filter_type = 'BOX'
-    scene.cycles.filter_width = 1.0
-    scene.cycles.max_bounces = 0
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
-    sphere = bpy.context.object
-    bpy.ops.object.shade_smooth()
+    S.cycles_cpu(scene, cycles_samples, pixel_filter_type='BOX', filter_width=1.0, max_bounces=0)
+    sphere = S.uv_sphere()
     out, seconds = {}, {}
     start = time.perf_counter()
     out["cycles"] = S.render_to_exr(scene, "cycles.exr")["ViewLayer.Combined.A"]
@@ -41,11 +33,11 @@ def blurred_ball(S, mod, size, camera, dof, focus_object, cycles_samples, unboun
     sphere.hide_render = True
     scene.render.engine = 'UNBOUND'
     scene.unbound.samples = unbound_samples
-    S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
+    S.unit_ball()
     start = time.perf_counter()
     out["unbound"] = S.render_to_exr(scene, "unbound.exr")["ViewLayer.Combined.A"]
     seconds["unbound"] = time.perf_counter() - start
-    np.savez(S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / "alpha.npz", **out)
+    np.savez(S.tmp_dir() / "alpha.npz", **out)
     from bl_ext.user_default.unbound import export
     dg = bpy.context.evaluated_depsgraph_get()
     keys = export.camera_dict(dg, cam.evaluated_get(dg), cam.matrix_world, size[0], size[1])

@@ -1,39 +1,6 @@
 """Scripts of test_gi_blender.py (run inside bpy by conftest.run_bpy: see bpy_scripts/__init__.py)."""
-import os
-import pathlib
-
 import bpy
 import numpy as np
-from mathutils import Vector
-
-TMP = pathlib.Path(os.environ.get("UNBOUND_TEST_TMP", "."))
-
-
-def _rgba(exr):
-    return np.stack([exr["ViewLayer.Combined." + ch] for ch in "RGBA"], -1)
-
-
-def _diffuse(name, color):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    nodes.clear()
-    bsdf = nodes.new("ShaderNodeBsdfDiffuse")
-    bsdf.inputs["Color"].default_value = tuple(color) + (1.0,)
-    bsdf.inputs["Roughness"].default_value = 0.0  # Lambert, as Unbound's colour
-    out = nodes.new("ShaderNodeOutputMaterial")
-    mat.node_tree.links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
-    return mat
-
-
-def _principled(name, color, metallic, roughness):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    bsdf = mat.node_tree.nodes["Principled BSDF"]
-    for socket, value in (("Base Color", tuple(color) + (1.0,)), ("Metallic", metallic), ("Roughness", roughness),
-                          ("IOR", 1.5), ("Specular IOR Level", 0.5)):
-        bsdf.inputs[socket].default_value = value
-    return mat
 
 
 def ball_over_floor(S, mod, size, ball_color, floor_color, world_color, sun_toward, sun_energy, bounces,
@@ -44,21 +11,13 @@ def ball_over_floor(S, mod, size, ball_color, floor_color, world_color, sun_towa
     limits on a fine smooth UV sphere."""
     scene = S.empty_scene(size[0], size[1])
     S.add_camera(scene, location=(0.0, -5.0, 0.8), target=(0.0, 0.0, -0.5))
-    for name, value in (("view_transform", 'Standard'), ("look", 'None'), ("exposure", 0.0), ("gamma", 1.0)):
-        setattr(scene.view_settings, name, value)
-    world = bpy.data.worlds.new("Uniform")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = tuple(world_color) + (1.0,)
-    scene.world = world
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
-    sun.data.energy = sun_energy
-    sun.data.angle = 0.0
-    scene.collection.objects.link(sun)
-    sun.rotation_euler = (-Vector(sun_toward)).to_track_quat('-Z', 'Y').to_euler()
-    ob = S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4,
-                       color=tuple(ball_color))
+    S.standard_view(scene)
+    S.uniform_world(scene, world_color)
+    S.add_sun(scene, sun_toward, sun_energy)
+    ob = S.unit_ball(color=tuple(ball_color))
     # A Principled BSDF (metallic, roughness) of the ball's colour instead of Lambert, in both engines.
-    ball_material = _principled("Ball", ball_color, *principled) if principled else _diffuse("Ball", ball_color)
+    ball_material = (S.principled_material("Ball", ball_color, *principled)[0] if principled
+                     else S.diffuse_material("Ball", ball_color))
     if principled:
         ob.unbound.material = ball_material
     u = scene.unbound
@@ -74,33 +33,30 @@ def ball_over_floor(S, mod, size, ball_color, floor_color, world_color, sun_towa
     u.sea_reflectivity = 0.0
     u.use_gi = True
     u.max_bounces, u.diffuse_bounces, u.glossy_bounces = bounces
-    renders = {"gi": _rgba(S.render_to_exr(scene, "gi.exr"))}
+    renders = {"gi": S.combined(S.render_to_exr(scene, "gi.exr"))}
     u.use_gi = False
-    renders["direct"] = _rgba(S.render_to_exr(scene, "direct.exr"))
+    renders["direct"] = S.combined(S.render_to_exr(scene, "direct.exr"))
     u.use_sea = False
     u.samples = 1
     scene.render.film_transparent = True
-    renders["ball"] = _rgba(S.render_to_exr(scene, "ball.exr"))
+    renders["ball"] = S.combined(S.render_to_exr(scene, "ball.exr"))
     scene.render.film_transparent = False
 
     for ob in list(scene.objects):
         if ob.type not in {'CAMERA', 'LIGHT'}:
             ob.hide_render = True
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
-    bpy.ops.object.shade_smooth()
-    bpy.context.object.data.materials.append(ball_material)
+    S.uv_sphere().data.materials.append(ball_material)
     bpy.ops.mesh.primitive_plane_add(size=2000.0, location=(0.0, 0.0, -1.0))
-    bpy.context.object.data.materials.append(_diffuse("Floor", floor_color))
+    bpy.context.object.data.materials.append(S.diffuse_material("Floor", floor_color))
     scene.render.engine = 'CYCLES'
-    c = scene.cycles
-    c.device, c.samples, c.use_adaptive_sampling, c.use_denoising, c.seed = 'CPU', cycles_samples, False, False, 5
+    c = S.cycles_cpu(scene, cycles_samples, seed=5)
     c.max_bounces, c.diffuse_bounces, c.glossy_bounces = bounces
     c.transmission_bounces = c.volume_bounces = 0
     c.sample_clamp_direct = c.sample_clamp_indirect = 0.0  # no clamping: unbiased, as Unbound
     c.blur_glossy = 0.0  # Filter Glossy would roughen glossy lobes after a diffuse bounce
     c.filter_width = 0.01  # every sample at the pixel centre
-    renders["cycles"] = _rgba(S.render_to_exr(scene, "cycles.exr"))
-    np.savez(TMP / "gi.npz", **renders)
+    renders["cycles"] = S.combined(S.render_to_exr(scene, "cycles.exr"))
+    np.savez(S.tmp_dir() / "gi.npz", **renders)
     S.report(done=True)
 
 

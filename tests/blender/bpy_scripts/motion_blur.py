@@ -44,16 +44,9 @@ def blurred_ball(S, mod, size, camera, motion, shutter, cycles_samples, unbound_
     scene.render.motion_blur_shutter = shutter["length"]
     if shutter["curve"]:
         shutter_curve(scene, shutter["curve"])
-    scene.cycles.device = 'CPU'
-    scene.cycles.samples = cycles_samples
-    scene.cycles.use_adaptive_sampling = False
-    scene.cycles.use_denoising = False
-    scene.cycles.pixel_filter_type = 'BOX'
-    scene.cycles.filter_width = 1.0
-    scene.cycles.max_bounces = 0
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
-    sphere = bpy.context.object
-    bpy.ops.object.shade_smooth()
+    # As test_depth_of_field_blender's: only the camera rays' coverage matters.
+    S.cycles_cpu(scene, cycles_samples, pixel_filter_type='BOX', filter_width=1.0, max_bounces=0)
+    sphere = S.uv_sphere()
     velocity = motion["velocity"]
     moving = sphere if motion["what"] == "object" else cam
     keyframed(S, moving, "location", 0, {0: moving.location.x - velocity, 2: moving.location.x + velocity})
@@ -66,7 +59,7 @@ def blurred_ball(S, mod, size, camera, motion, shutter, cycles_samples, unbound_
     sphere.hide_render = True
     scene.render.engine = 'UNBOUND'
     scene.unbound.samples = unbound_samples
-    ball = S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4)
+    ball = S.unit_ball()
     if moving is sphere:
         keyframed(S, ball, "location", 0, {0: -velocity, 2: velocity})
         moving = ball
@@ -77,7 +70,7 @@ def blurred_ball(S, mod, size, camera, motion, shutter, cycles_samples, unbound_
     stats = dict(mod.engine.LAST_STATS)
     scene.render.use_motion_blur = False
     out["unblurred"] = S.render_to_exr(scene, "unblurred.exr")["ViewLayer.Combined.A"]
-    np.savez(S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / "alpha.npz", **out)
+    np.savez(S.tmp_dir() / "alpha.npz", **out)
     S.report(seconds=seconds, blur_seconds=stats["motion_blur_seconds"], render_seconds=stats["seconds"],
              after=dict(frame=scene.frame_current, subframe=scene.frame_subframe, x=moving.location.x,
                         evaluated_x=moving.evaluated_get(bpy.context.evaluated_depsgraph_get()).matrix_world[0][3]))
@@ -85,8 +78,7 @@ def blurred_ball(S, mod, size, camera, motion, shutter, cycles_samples, unbound_
 
 def combined(S, scene, name):
     """The Combined pass (RGBA) of F12."""
-    exr = S.render_to_exr(scene, name)
-    return np.stack([exr["ViewLayer.Combined.%s" % c] for c in "RGBA"], axis=-1)
+    return S.combined(S.render_to_exr(scene, name))
 
 
 def keyframed_mu(S, mod, size, samples, shutter, mu_keys, subframes):
@@ -124,7 +116,7 @@ def keyframed_mu(S, mod, size, samples, shutter, mu_keys, subframes):
     out["at_sample_times"] = mean_over(times, samples)
     opening, length = mod.motion_blur.shutter_interval(scene.render, FRAME)
     out["at_subframes"] = mean_over([opening + length * (k + 0.5) / subframes for k in range(subframes)], 4)
-    np.savez(S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"]) / "combined.npz", **out)
+    np.savez(S.tmp_dir() / "combined.npz", **out)
     S.report(times=times, after=after, blur_seconds=blur_stats["motion_blur_seconds"],
              render_seconds=blur_stats["seconds"])
 
@@ -188,7 +180,7 @@ def refusals_and_stereo(S, mod):
     scene.render.image_settings.views_format = 'INDIVIDUAL'
 
     def eyes(name):
-        folder = S.pathlib.Path(S.os.environ["UNBOUND_TEST_TMP"])
+        folder = S.tmp_dir()
         scene.render.filepath = str(folder / (name + ".exr"))
         bpy.ops.render.render(write_still=True)  # Blender writes NAME_L.exr and NAME_R.exr
         return [S.read_exr(folder / ("%s_%s.exr" % (name, eye)))["ViewLayer.Combined.A"] for eye in "LR"]

@@ -1,31 +1,21 @@
 """Scripts of test_world_light_blender.py (run inside bpy by conftest.run_bpy)."""
 import importlib
 import math
-import os
-import pathlib
 
 import bpy
 import numpy as np
-
-TMP = pathlib.Path(os.environ.get("UNBOUND_TEST_TMP", "."))
 
 
 def world_light(mod):
     return importlib.import_module(mod.__name__ + ".world_light")
 
 
-def combined(exr):
-    return np.stack([exr["ViewLayer.Combined." + ch] for ch in "RGBA"], -1)
-
-
 def ball_scene(S, width, height, rho):
     scene = S.empty_scene(width, height)
     S.add_camera(scene, location=(0.6, -3.4, 1.0))
     scene.render.film_transparent = True  # alpha = coverage; the world still lights
-    for name, value in (("view_transform", 'Standard'), ("look", 'None'), ("exposure", 0.0), ("gamma", 1.0)):
-        setattr(scene.view_settings, name, value)
-    S.add_fractal(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, threshold_mode='FIXED', epsilon=1e-4,
-                  color=(rho, rho, rho))
+    S.standard_view(scene)
+    S.unit_ball(color=(rho, rho, rho))
     u = scene.unbound
     u.axle_light = 0.0
     u.ambient = (0.0, 0.0, 0.0)
@@ -34,16 +24,11 @@ def ball_scene(S, width, height, rho):
 
 def uniform_world(S, mod, radiance, rho, samples, world_samples):
     scene = ball_scene(S, 48, 36, rho)
-    world = bpy.data.worlds.new("Uniform")
-    world.use_nodes = True
-    bg = world.node_tree.nodes["Background"]
-    bg.inputs["Color"].default_value = tuple(radiance) + (1.0,)
-    bg.inputs["Strength"].default_value = 1.0
-    scene.world = world
+    S.uniform_world(scene, radiance)
     scene.unbound.samples = samples
     scene.unbound.world_samples = world_samples
-    px = combined(S.render_to_exr(scene, "uniform.exr"))
-    np.save(TMP / "uniform.npy", px)
+    px = S.combined(S.render_to_exr(scene, "uniform.exr"))
+    np.save(S.tmp_dir() / "uniform.npy", px)
     S.report(constant_map=world_light(mod).world_map(scene).tolist())
 
 
@@ -71,7 +56,7 @@ def write_hdri(path, width=64, height=32):
 def hdri_world(S, mod, samples, world_samples, cycles_samples, rotation_z_deg):
     rho = 0.7
     scene = ball_scene(S, 64, 48, rho)
-    path = TMP / "sky.exr"
+    path = S.tmp_dir() / "sky.exr"
     write_hdri(path)
     world = bpy.data.worlds.new("HDRI")
     world.use_nodes = True
@@ -97,39 +82,26 @@ def hdri_world(S, mod, samples, world_samples, cycles_samples, rotation_z_deg):
     t0 = time.perf_counter()
     again = world_light(mod).world_map(scene)
     cached_seconds = time.perf_counter() - t0
-    np.save(TMP / "baked.npy", baked)
-    unbound = combined(S.render_to_exr(scene, "unbound.exr"))
+    np.save(S.tmp_dir() / "baked.npy", baked)
+    unbound = S.combined(S.render_to_exr(scene, "unbound.exr"))
     # A changed node setting is a new map (the cache is keyed by the tree's settings).
+    key = world_light(mod).fingerprint(world, 256, 16)
     mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(rotation_z_deg + 90.0))
-    changed_key = world_light(mod).fingerprint(world, 256, 16) != world_light(mod).fingerprint(world, 256, 17)
-    rotated_key = len(world_light(mod)._CACHE)
+    changed_key = world_light(mod).fingerprint(world, 256, 16) != key
     mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(rotation_z_deg))
 
     # Cycles: the same camera and world on a fine smooth UV sphere with a Diffuse BSDF.
     for ob in list(scene.objects):
         if ob.type != 'CAMERA':
             ob.hide_render = True
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=256, ring_count=128, radius=1.0)
-    bpy.ops.object.shade_smooth()
-    mat = bpy.data.materials.new("Diffuse")
-    mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    nodes.clear()
-    bsdf = nodes.new("ShaderNodeBsdfDiffuse")
-    bsdf.inputs["Color"].default_value = (rho, rho, rho, 1.0)
-    bsdf.inputs["Roughness"].default_value = 0.0
-    out = nodes.new("ShaderNodeOutputMaterial")
-    mat.node_tree.links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
-    bpy.context.object.data.materials.append(mat)
+    S.uv_sphere().data.materials.append(S.diffuse_material("Diffuse", (rho, rho, rho)))
     scene.render.engine = 'CYCLES'
-    c = scene.cycles
-    c.device, c.samples, c.use_adaptive_sampling, c.use_denoising, c.seed = 'CPU', cycles_samples, False, False, 3
-    c.max_bounces = 0  # direct light only: the world seen by the surface, no interreflection
-    c.filter_width = 0.01
-    cycles = combined(S.render_to_exr(scene, "cycles.exr"))
-    np.savez(TMP / "hdri.npz", unbound=unbound, cycles=cycles)
+    # Direct light only (max bounces 0): the world seen by the surface, no interreflection.
+    S.cycles_cpu(scene, cycles_samples, seed=3, max_bounces=0, filter_width=0.01)
+    cycles = S.combined(S.render_to_exr(scene, "cycles.exr"))
+    np.savez(S.tmp_dir() / "hdri.npz", unbound=unbound, cycles=cycles)
     S.report(bake_seconds=bake_seconds, cached_seconds=cached_seconds, changed_key=changed_key,
-             shape=list(baked.shape), cache_entries=rotated_key)
+             shape=list(baked.shape))
 
 
 def bake_failure_is_reported(S, mod):
@@ -140,6 +112,6 @@ def bake_failure_is_reported(S, mod):
     env = nt.nodes.new("ShaderNodeTexEnvironment")
     nt.links.new(env.outputs["Color"], nt.nodes["Background"].inputs["Color"])
     scene.world = world
-    world_light(mod).BAKE_SCRIPT = pathlib.Path(TMP / "missing_script.py")
+    world_light(mod).BAKE_SCRIPT = S.tmp_dir() / "missing_script.py"
     outcome, written = S.attempt(scene, "broken.png")
     S.report(outcome=outcome, written=written)
