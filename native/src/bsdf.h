@@ -191,7 +191,7 @@ static inline double bsdf_specular_probability(const ub_bsdf *b)
     if (!(alpha * alpha > 2e-10))
         return 0.0;
     double specular = b->metallic + (1.0 - b->metallic) * (b->eta != 1.0 ? bsdf_clamp01(b->specular_f0) : 0.0);
-    double diffuse = (1.0 - b->metallic) * (0.2126 * b->base[0] + 0.7152 * b->base[1] + 0.0722 * b->base[2]);
+    double diffuse = (1.0 - b->metallic) * ub_luminance(b->base[0], b->base[1], b->base[2]);
     if (!(specular > 0.0))
         return 0.0;
     if (!(diffuse > 0.0))

@@ -109,7 +109,7 @@ static double world_pdf(const ub_world *wd, int i, int j, double sin_polar)
     if (!(wd->sum > 0.0) || !(sin_polar > 0.0))
         return 0.0;
     const float *t = wd->rgb + ((size_t)j * wd->w + i) * 3;
-    double f = (0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2]) * wd->row_sin[j];
+    double f = ub_luminance(t[0], t[1], t[2]) * wd->row_sin[j];
     return f * wd->w * wd->h / wd->sum / (2.0 * M_PI * M_PI * sin_polar);
 }
 
