@@ -255,7 +255,11 @@ static inline __attribute__((always_inline)) void zoom_iterate_vector(const ub_o
 }
 
 /* The kind, the path and the extras as constants: each combination its own loop. */
-#define ZOOM_CASE(index)                                                                                       case index:                                                                                                    for (int h = 0; h < ZOOM_VECTORS; h++)                                                                         zoom_iterate_vector(o, &v[h], (index) >> 3 & 1, (index) >> 2 & 1, (index) >> 1 & 1, (index) & 1);         break;
+#define ZOOM_CASE(index)                                                                                      \
+    case index:                                                                                               \
+        for (int h = 0; h < ZOOM_VECTORS; h++)                                                                \
+            zoom_iterate_vector(o, &v[h], (index) >> 3 & 1, (index) >> 2 & 1, (index) >> 1 & 1, (index) & 1); \
+        break;
 static void zoom_iterate_vectors(const ub_object *o, zoom_vector v[ZOOM_VECTORS], int julia, int perturb,
                                  int jacobian, int trap)
 {
