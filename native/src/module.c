@@ -1116,6 +1116,9 @@ static PyObject *py_zoom_probe(PyObject *self, PyObject *args, PyObject *kwargs)
     PyObject *result = NULL;
     if (!obj->zoom.enabled) {
         PyErr_SetString(PyExc_ValueError, "_zoom_probe: the object has no zoom");
+    } else if (ub_kind_is_formula(obj->kind)) {
+        /* Their zoom is zoom_formulas.c's, with no reference orbits for the quaternion paths. */
+        PyErr_SetString(PyExc_ValueError, "_zoom_probe: the quaternion Julia and Mandelbrot kinds only");
     } else if ((result = PyBytes_FromStringAndSize(NULL, n * UB_ZOOM_PROBE_VALUES * (Py_ssize_t)sizeof(double)))) {
         double *out = (double *)PyBytes_AsString(result);
         Py_BEGIN_ALLOW_THREADS
