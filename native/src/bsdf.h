@@ -83,6 +83,22 @@ static inline double bsdf_lambda(double alpha2, double c)
     return 0.5 * (sqrt(1.0 + alpha2 * (tan2 > 0.0 ? tan2 : 0.0)) - 1.0);
 }
 
+/* GGX's normal distribution D at the half vector h (unnormalised, of length len > 0). */
+static inline double bsdf_ggx_D(double alpha2, const float n[3], const double h[3], double len)
+{
+    double cos_nh = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / len;
+    double c2 = cos_nh * cos_nh < 1.0 ? cos_nh * cos_nh : 1.0;
+    double d = 1.0 - c2 + alpha2 * c2;
+    return alpha2 / (M_PI * d * d);
+}
+
+/* The view's cosine as the lobes use it: at least 1e-6 (grazing or back-facing views), at most 1. */
+static inline double bsdf_view_cosine(const float n[3], const double wo[3])
+{
+    double cos_o = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
+    return cos_o > 1e-6 ? (cos_o < 1.0 ? cos_o : 1.0) : 1e-6;
+}
+
 /* The multiple-scattering factor 1 + Fms (1 - E) / E of a lobe with average single-scattering
  * Fresnel fss (per channel). */
 static inline double bsdf_multiscatter(double fss, double E, double E_avg)
@@ -96,13 +112,12 @@ static inline double bsdf_multiscatter(double fss, double E, double E_avg)
  * facing the viewer. 0 where the light is behind the surface. */
 static void bsdf_eval(const ub_bsdf *b, const float n[3], const double wo[3], const double wi[3], double out[3])
 {
-    double cos_o = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
     double cos_i = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2];
     for (int c = 0; c < 3; c++)
         out[c] = 0.0;
     if (!(cos_i > 0.0))
         return;
-    cos_o = cos_o > 1e-6 ? (cos_o < 1.0 ? cos_o : 1.0) : 1e-6;
+    const double cos_o = bsdf_view_cosine(n, wo);
     double alpha = b->roughness * b->roughness, alpha2 = alpha * alpha;
     double weight = 1.0 - b->metallic; /* what the layers below the metal get */
     /* The microfacet lobes' shared single-scattering part, D G2 / (4 cos_o) (cosine at the light
@@ -113,11 +128,8 @@ static void bsdf_eval(const ub_bsdf *b, const float n[3], const double wo[3], co
         double h[3] = {wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]};
         double len = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
         if (len > 0.0) {
-            double cos_nh = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / len;
             cos_h = bsdf_clamp01((wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]) / len);
-            double c2 = cos_nh * cos_nh < 1.0 ? cos_nh * cos_nh : 1.0;
-            double d = 1.0 - c2 + alpha2 * c2;
-            double D = alpha2 / (M_PI * d * d);
+            double D = bsdf_ggx_D(alpha2, n, h, len);
             spec = D * 0.25 / cos_o / (1.0 + bsdf_lambda(alpha2, cos_o) + bsdf_lambda(alpha2, cos_i));
         }
     }
@@ -191,7 +203,7 @@ static inline double bsdf_specular_probability(const ub_bsdf *b)
     if (!(alpha * alpha > 2e-10))
         return 0.0;
     double specular = b->metallic + (1.0 - b->metallic) * (b->eta != 1.0 ? bsdf_clamp01(b->specular_f0) : 0.0);
-    double diffuse = (1.0 - b->metallic) * (0.2126 * b->base[0] + 0.7152 * b->base[1] + 0.0722 * b->base[2]);
+    double diffuse = (1.0 - b->metallic) * ub_luminance(b->base[0], b->base[1], b->base[2]);
     if (!(specular > 0.0))
         return 0.0;
     if (!(diffuse > 0.0))
@@ -204,21 +216,16 @@ static inline double bsdf_specular_probability(const ub_bsdf *b)
  * D(h) G1(wo) / (4 cos_o), with bsdf_eval's clamp of cos_o. */
 static double bsdf_ggx_pdf(const ub_bsdf *b, const float n[3], const double wo[3], const double wi[3])
 {
-    double cos_o = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
     double cos_i = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2];
     if (!(cos_i > 0.0))
         return 0.0;
-    cos_o = cos_o > 1e-6 ? (cos_o < 1.0 ? cos_o : 1.0) : 1e-6;
+    const double cos_o = bsdf_view_cosine(n, wo);
     double alpha = b->roughness * b->roughness, alpha2 = alpha * alpha;
     double h[3] = {wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]};
     double len = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
     if (!(alpha2 > 2e-10) || !(len > 0.0))
         return 0.0;
-    double cos_nh = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / len;
-    double c2 = cos_nh * cos_nh < 1.0 ? cos_nh * cos_nh : 1.0;
-    double d = 1.0 - c2 + alpha2 * c2;
-    double D = alpha2 / (M_PI * d * d);
-    return D / (1.0 + bsdf_lambda(alpha2, cos_o)) / (4.0 * cos_o);
+    return bsdf_ggx_D(alpha2, n, h, len) / (1.0 + bsdf_lambda(alpha2, cos_o)) / (4.0 * cos_o);
 }
 
 /* A GGX visible normal for wo by (r1, r2) in [0, 1)^2 (Heitz 2018, isotropic), and wo mirrored

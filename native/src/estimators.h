@@ -499,18 +499,14 @@ static void de_zoom_formula(const ub_de_params *p, vm lanes, vf a, vf b, vf c, c
     v_store(u[0], a);
     v_store(u[1], b);
     v_store(u[2], c);
-    zoom_out r;
-    memset(r.normal, 0, sizeof r.normal);
+    zoom_out r; /* only the wanted lanes are filled, and read */
     for (int l = 0; l < UB_LANES; l++) {
         if (!((wanted >> l) & 1))
             continue;
         const double ul[3] = {u[0][l], u[1][l], u[2][l]};
         ub_zoom_result one;
         ub_zoom_formula_estimate(p->obj, ul, &one);
-        r.dist[l] = one.dist;
-        r.iterations[l] = one.iterations;
-        r.trap[l] = one.trap;
-        r.potential[l] = one.potential;
+        zoom_out_put(&r, l, &one);
     }
     zoom_out_vectors(&r, wanted, want, dist, iters, x);
 }

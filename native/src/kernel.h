@@ -400,6 +400,15 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         surface_materials(sc, tr, sf);
 }
 
+/* The material's BSDF at lane l's hit (bsdf_eval, its cosine included) toward unit wi, seen along
+ * the lane's ray. */
+static void lane_bsdf_eval(const ub_surface *sf, const ub_packet_rays *pr, int l, const double wi[3], double f[3])
+{
+    const float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
+    const double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]};
+    bsdf_eval(&sf->bsdf[l], n, wo, wi, f);
+}
+
 /* Direct light at the hits of one bounce: the axle light and the scene's lights, Lambertian
  * (albedo / pi per unit of irradiance; the axle light is in units of the paper's shading,
  * albedo * cos), with shadow rays toward each light. */
@@ -435,8 +444,8 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
             double c = sf->n[0][l] * toward[0] + sf->n[1][l] * toward[1] + sf->n[2][l] * toward[2];
             if ((sf->bsdf_lanes >> l) & 1) {
                 /* In the paper's units: pi times the BSDF, which is albedo * cos for Lambert. */
-                double view[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, f[3];
-                bsdf_eval(&sf->bsdf[l], (const float[3]){sf->n[0][l], sf->n[1][l], sf->n[2][l]}, view, toward, f);
+                double f[3];
+                lane_bsdf_eval(sf, pr, l, toward, f);
                 for (int i = 0; i < 3; i++)
                     direct[i][l] += (float)(sh->axle_light * M_PI * f[i]);
             } else if (c > 0.0) {
@@ -477,8 +486,8 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
                 E[i][l] = e[i] * M_1_PI;
             if ((sf->bsdf_lanes >> l) & 1) {
                 /* The material's BSDF (its cosine included) instead of Lambert's albedo / pi. */
-                double view[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, f[3];
-                bsdf_eval(&sf->bsdf[l], (const float[3]){sf->n[0][l], sf->n[1][l], sf->n[2][l]}, view, dl, f);
+                double f[3];
+                lane_bsdf_eval(sf, pr, l, dl, f);
                 cosv[l] = 1.0;
                 for (int i = 0; i < 3; i++)
                     E[i][l] = e[i] * f[i];

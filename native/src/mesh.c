@@ -68,6 +68,8 @@ static const uint64_t AXIS_STEP[3] = {1ull, 1ull << KEY_BITS, 1ull << (2 * KEY_B
 
 /* ---------------------------------------------------------------- context, memory */
 
+#define BURY_MAX 64 /* buffers buried at most; more are freed at once */
+
 typedef struct {
     const ub_object *o;
     const ub_mesh_options *opt;
@@ -84,7 +86,7 @@ typedef struct {
     double next_poll, progress_lo, progress_hi;
     int64_t evaluations; /* atomic */
     /* Large buffers freed after a cancel, to be given back by a helper thread (bury, reap). */
-    void *buried[64];
+    void *buried[BURY_MAX];
     int buried_count;
 } mctx;
 
@@ -106,7 +108,7 @@ static void *m_realloc(mctx *c, void *p, size_t old, size_t size)
 #define BURY_BYTES ((size_t)1 << 20)
 static void bury(mctx *c, void *p, size_t size)
 {
-    if (p && size >= BURY_BYTES && c->buried_count < (int)(sizeof c->buried / sizeof c->buried[0]))
+    if (p && size >= BURY_BYTES && c->buried_count < BURY_MAX)
         c->buried[c->buried_count++] = p;
     else
         free(p);
@@ -122,7 +124,7 @@ static void m_free(mctx *c, void *p, size_t size)
 
 #define REAP_DELAY_MS 200
 typedef struct {
-    void *buffers[64];
+    void *buffers[BURY_MAX];
     int count;
 } grave;
 
@@ -717,10 +719,8 @@ static int sort_cells(mctx *c, vec *cells)
             count[d] = sum;
             sum += t;
         }
-        for (size_t i = 0; i < n && !c->cancel; i++) {
-            serial_poll(c, i);
+        for (size_t i = 0; i < n && !serial_poll(c, i); i++)
             b[count[(a[i].key >> shift) & 2047]++] = a[i];
-        }
         cell_rec *t = a;
         a = b;
         b = t;

@@ -487,6 +487,16 @@ static int parse_shading(PyObject *o, ub_shading *sh)
 
 /* ---------------------------------------------------------------- buffers */
 
+/* Whether an acquired buffer holds float32 (its struct format "f", with or without a native or
+ * little-endian byte-order prefix). */
+static int buffer_is_float32(const Py_buffer *view)
+{
+    const char *fmt = view->format ? view->format : "B";
+    if ((fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@') && fmt[1])
+        fmt++;
+    return strcmp(fmt, "f") == 0 && view->itemsize == 4;
+}
+
 /* Acquires a writable C-contiguous float32 buffer of exactly `count` elements with one of the
  * accepted shapes. shape0/shape1/chans: expected (rows, cols, channels); chans 0 = 1-D. */
 static int get_float_buffer(PyObject *o, const char *name, Py_ssize_t rows, Py_ssize_t cols, int chans,
@@ -497,11 +507,7 @@ static int get_float_buffer(PyObject *o, const char *name, Py_ssize_t rows, Py_s
         PyErr_Format(PyExc_TypeError, "%s must be a writable buffer of float32 (e.g. a numpy array)", name);
         return -1;
     }
-    const char *fmt = view->format ? view->format : "B";
-    if ((fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@') && fmt[1])
-        fmt++;
-    int ok_type = strcmp(fmt, "f") == 0 && view->itemsize == 4;
-    if (!ok_type) {
+    if (!buffer_is_float32(view)) {
         PyBuffer_Release(view);
         PyErr_Format(PyExc_TypeError, "%s must have dtype float32", name);
         return -1;
@@ -717,11 +723,8 @@ static int parse_world(PyObject *o, Py_buffer *view, ub_world *world)
         PyErr_SetString(PyExc_TypeError, "world must be a float32 array of shape (height, width, 3) or None");
         return -1;
     }
-    const char *fmt = view->format ? view->format : "B";
-    if ((fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@') && fmt[1])
-        fmt++;
     const char *problem = NULL;
-    if (strcmp(fmt, "f") != 0 || view->itemsize != 4)
+    if (!buffer_is_float32(view))
         problem = "world must have dtype float32";
     else if (view->ndim != 3 || view->shape[2] != 3 || view->shape[0] < 1 || view->shape[1] < 1)
         problem = "world must have shape (height, width, 3): an equirectangular RGB map, row 0 at the nadir";
@@ -874,11 +877,7 @@ static Py_ssize_t get_points(PyObject *o, Py_buffer *view)
         PyErr_SetString(PyExc_TypeError, "points must be a float32 array of shape (n, 3)");
         return -1;
     }
-    const char *fmt = view->format ? view->format : "B";
-    if (fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@')
-        fmt++;
-    if (view->ndim != 2 || view->shape[1] != 3 || strcmp(fmt, "f") != 0 || view->itemsize != 4
-        || !PyBuffer_IsContiguous(view, 'C')) {
+    if (view->ndim != 2 || view->shape[1] != 3 || !buffer_is_float32(view) || !PyBuffer_IsContiguous(view, 'C')) {
         PyBuffer_Release(view);
         PyErr_SetString(PyExc_ValueError, "points must be a C-contiguous float32 array of shape (n, 3)");
         return -1;
@@ -1117,6 +1116,9 @@ static PyObject *py_zoom_probe(PyObject *self, PyObject *args, PyObject *kwargs)
     PyObject *result = NULL;
     if (!obj->zoom.enabled) {
         PyErr_SetString(PyExc_ValueError, "_zoom_probe: the object has no zoom");
+    } else if (ub_kind_is_formula(obj->kind)) {
+        /* Their zoom is zoom_formulas.c's, with no reference orbits for the quaternion paths. */
+        PyErr_SetString(PyExc_ValueError, "_zoom_probe: the quaternion Julia and Mandelbrot kinds only");
     } else if ((result = PyBytes_FromStringAndSize(NULL, n * UB_ZOOM_PROBE_VALUES * (Py_ssize_t)sizeof(double)))) {
         double *out = (double *)PyBytes_AsString(result);
         Py_BEGIN_ALLOW_THREADS

@@ -371,6 +371,13 @@ typedef struct {
 
 #define UB_MAX_WORLD_TEXELS (4096 * 2048)
 
+/* Rec. 709 luminance, Blender's scene-linear default: the weight of the world map's distribution
+ * and of a material's diffuse lobe against its specular one (bsdf.h). */
+static inline double ub_luminance(double r, double g, double b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
 /* world.c: the distribution of a map (rgb finite, >= 0); NULL or an error message. */
 const char *ub_world_prepare(ub_world *world, const float *rgb, int w, int h);
 void ub_world_release(ub_world *world);

@@ -5,13 +5,6 @@
 
 #include <stdlib.h>
 
-/* Rec. 709 luminance: Blender's scene-linear default. It only shapes the distribution; the
- * estimate stays unbiased whatever the weights, as long as a lit texel has a positive one. */
-static double luminance(const float *rgb)
-{
-    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
-}
-
 /* Running sums of `n` weights into cdf[0..n], normalised to end at 1; an all-zero row gets the
  * uniform CDF (never sampled: the marginal gives it no weight). Returns the total. */
 static double build_cdf(const double *weights, int n, float *cdf)
@@ -50,8 +43,12 @@ const char *ub_world_prepare(ub_world *world, const float *rgb, int w, int h)
         /* Row j's centre lies at polar angle pi (1 - (j + 0.5) / h) (row 0 the nadir's). */
         double s = ub_sin(M_PI * (j + 0.5) / h);
         world->row_sin[j] = (float)s;
-        for (int i = 0; i < w; i++)
-            weights[i] = luminance(rgb + ((size_t)j * w + i) * 3) * s;
+        /* Luminance only shapes the distribution; the estimate stays unbiased whatever the
+         * weights, as long as a lit texel has a positive one. */
+        for (int i = 0; i < w; i++) {
+            const float *t = rgb + ((size_t)j * w + i) * 3;
+            weights[i] = ub_luminance(t[0], t[1], t[2]) * s;
+        }
         row_weight[j] = build_cdf(weights, w, world->col_cdf + (size_t)j * (w + 1));
     }
     world->sum = build_cdf(row_weight, h, world->row_cdf);

@@ -109,7 +109,7 @@ static double world_pdf(const ub_world *wd, int i, int j, double sin_polar)
     if (!(wd->sum > 0.0) || !(sin_polar > 0.0))
         return 0.0;
     const float *t = wd->rgb + ((size_t)j * wd->w + i) * 3;
-    double f = (0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2]) * wd->row_sin[j];
+    double f = ub_luminance(t[0], t[1], t[2]) * wd->row_sin[j];
     return f * wd->w * wd->h / wd->sum / (2.0 * M_PI * M_PI * sin_polar);
 }
 
@@ -166,14 +166,13 @@ static double diffuse_sample(const float n[3], double r1, double r2, double wi[3
     return z * M_1_PI;
 }
 
-/* Density per steradian of the map's distribution along direction d. */
-static double world_pdf_along(const ub_world *wd, const double d[3])
+/* Density per steradian of the map's distribution along direction d, and the texel (i, j) d sees. */
+static double world_pdf_along(const ub_world *wd, const double d[3], int *i, int *j)
 {
     double u, v;
-    int i, j;
     world_uv(d, &u, &v);
-    world_texel(wd, u, v, &i, &j);
-    return world_pdf(wd, i, j, ub_hypot(d[0], d[1]));
+    world_texel(wd, u, v, i, j);
+    return world_pdf(wd, *i, *j, ub_hypot(d[0], d[1]));
 }
 
 /* The surface technique of a material without a bounce to weigh against: its BSDF's own mixture
@@ -210,8 +209,7 @@ static double surface_density(const ub_bsdf *b, const float n[3], const double w
         ub_bounce_density own = material_world_density(b);
         return bounce_density(&own, b, n, wo, d);
     }
-    double c = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-    return c > 0.0 ? c * M_1_PI : 0.0;
+    return diffuse_response(n, d);
 }
 
 /* One direction of a world-light pair at lane l: its radiance over (p_map + p_surface) times the
@@ -234,10 +232,7 @@ static int world_direction_weight(const ub_world *wd, const float n[3], const ub
         p_surface = surface_sample(b, n, wo, r_lobe, r1, r2, d);
         if (!(p_surface > 0.0))
             return 0;
-        double u, v;
-        world_uv(d, &u, &v);
-        world_texel(wd, u, v, &i, &j);
-        p_map = world_pdf(wd, i, j, ub_hypot(d[0], d[1]));
+        p_map = world_pdf_along(wd, d, &i, &j);
     }
     double response[3];
     if (b) {
@@ -264,7 +259,8 @@ static double world_bounce_share(const ub_scene *sc, const double d[3], double d
     const int N = sc->shading->world_samples;
     if (!wd || N <= 0 || !(wd->sum > 0.0))
         return 1.0;
-    double p_map = world_pdf_along(wd, d);
+    int i, j;
+    double p_map = world_pdf_along(wd, d, &i, &j);
     return density > 0.0 ? density / (N * p_map + density) : 0.0;
 }
 

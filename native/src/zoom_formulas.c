@@ -235,6 +235,14 @@ static double kifs_shape_distance(const ub_object *o, const double z[3])
 
 /* ------------------------------------------------------------------ the orbit */
 
+/* The one formula of a non-hybrid kind (a hybrid's entries name theirs). */
+static int formula_of_kind(ub_fractal_kind kind)
+{
+    return kind == UB_KIND_MANDELBULB ? UB_HYBRID_MANDELBULB
+           : kind == UB_KIND_MANDELBOX ? UB_HYBRID_MANDELBOX
+                                       : UB_HYBRID_KIFS;
+}
+
 /* One orbit of the object's formula (a hybrid's entries in turn, or its one formula every
  * step): the escape-time loop of formulas.h's de_* with orbit_step's bookkeeping. */
 typedef struct {
@@ -267,12 +275,10 @@ static void run_orbit(const ub_object *o, const double p[3], orbit_state *s)
     s->trap = s->r2;
     s->gscale = 1.0;
     s->count = 0;
+    const int hybrid = o->kind == UB_KIND_HYBRID, single = formula_of_kind(o->kind);
     int entry = 0, done = 0;
     for (int it = 0; it < o->max_iterations; it++) {
-        int formula = o->kind == UB_KIND_HYBRID ? o->hybrid_formula[entry]
-                      : o->kind == UB_KIND_MANDELBULB ? UB_HYBRID_MANDELBULB
-                      : o->kind == UB_KIND_MANDELBOX  ? UB_HYBRID_MANDELBOX
-                                                      : UB_HYBRID_KIFS;
+        int formula = hybrid ? o->hybrid_formula[entry] : single;
         switch (formula) {
         case UB_HYBRID_MANDELBULB: {
             double next[3], rn1;
@@ -296,7 +302,7 @@ static void run_orbit(const ub_object *o, const double p[3], orbit_state *s)
         s->count++;
         if (nr2 > bail2)
             break;
-        if (o->kind == UB_KIND_HYBRID && ++done >= o->hybrid_repeat[entry]) {
+        if (hybrid && ++done >= o->hybrid_repeat[entry]) {
             done = 0;
             entry = entry + 1 < o->hybrid_count ? entry + 1 : 0;
         }
@@ -328,6 +334,7 @@ void ub_zoom_formula_estimate(const ub_object *o, const double u[3], ub_zoom_res
     res->trap = sqrt(s.trap);
     res->potential = o->kind == UB_KIND_MANDELBULB && escaped ? lr2 * 0.5 * s.gscale : 0.0;
     res->normal[0] = res->normal[1] = res->normal[2] = 0.0; /* no Jacobian: gradient normals */
+    res->rebases = 0; /* no perturbation, no glitches */
 }
 
 /* ------------------------------------------------------------------ set-up */
@@ -372,10 +379,7 @@ static int zoom_iterations(const ub_object *o, double zoom)
         }
         log_growth /= steps;
     } else {
-        int formula = o->kind == UB_KIND_MANDELBULB ? UB_HYBRID_MANDELBULB
-                      : o->kind == UB_KIND_MANDELBOX ? UB_HYBRID_MANDELBOX
-                                                     : UB_HYBRID_KIFS;
-        log_growth = ub_log(growth_per_step(o, formula));
+        log_growth = ub_log(growth_per_step(o, formula_of_kind(o->kind)));
     }
     double extra = ceil(zoom * ub_log(10.0) / log_growth);
     double total = o->max_iterations + (extra < UB_MAX_ITERATIONS ? extra : UB_MAX_ITERATIONS);

@@ -21,6 +21,18 @@ typedef struct {
     double rebases[UB_LANES];
 } zoom_out;
 
+/* One point's ub_zoom_result into lane l of out. */
+static inline void zoom_out_put(zoom_out *out, int l, const ub_zoom_result *one)
+{
+    out->dist[l] = one->dist;
+    out->iterations[l] = one->iterations;
+    out->trap[l] = one->trap;
+    out->potential[l] = one->potential;
+    for (int a = 0; a < 3; a++)
+        out->normal[a][l] = one->normal[a];
+    out->rebases[l] = one->rebases;
+}
+
 /* zoom.c's scalar reference, lane by lane, for the lanes `bits` of the packet q: what the vectors
  * below must equal bit for bit (the probe compares them), and the portable kernel's own path: its
  * plain-C vectors of 4 doubles measured slower than the scalar code at zoom 30 (5.6 against 3.4 ns
@@ -34,13 +46,7 @@ static void zoom_lanes_scalar(const ub_object *o, int path, int bits, const floa
         const double uq[4] = {q[0][l], q[1][l], q[2][l], q[3][l]};
         ub_zoom_result one;
         ub_zoom_estimate(o, path, uq, want, &one);
-        out->dist[l] = one.dist;
-        out->iterations[l] = one.iterations;
-        out->trap[l] = one.trap;
-        out->potential[l] = one.potential;
-        for (int a = 0; a < 3; a++)
-            out->normal[a][l] = one.normal[a];
-        out->rebases[l] = one.rebases;
+        zoom_out_put(out, l, &one);
     }
 }
 
@@ -249,7 +255,11 @@ static inline __attribute__((always_inline)) void zoom_iterate_vector(const ub_o
 }
 
 /* The kind, the path and the extras as constants: each combination its own loop. */
-#define ZOOM_CASE(index)                                                                                       case index:                                                                                                    for (int h = 0; h < ZOOM_VECTORS; h++)                                                                         zoom_iterate_vector(o, &v[h], (index) >> 3 & 1, (index) >> 2 & 1, (index) >> 1 & 1, (index) & 1);         break;
+#define ZOOM_CASE(index)                                                                                      \
+    case index:                                                                                               \
+        for (int h = 0; h < ZOOM_VECTORS; h++)                                                                \
+            zoom_iterate_vector(o, &v[h], (index) >> 3 & 1, (index) >> 2 & 1, (index) >> 1 & 1, (index) & 1); \
+        break;
 static void zoom_iterate_vectors(const ub_object *o, zoom_vector v[ZOOM_VECTORS], int julia, int perturb,
                                  int jacobian, int trap)
 {
