@@ -626,10 +626,23 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
     memcpy(ps->primary_out_of_steps, tr->out_of_steps, sizeof ps->primary_out_of_steps);
 }
 
-/* Lanes of `alive` that missed everything see the world (unfogged): the background colour, or
- * the world map along the ray (times the background's alpha for camera rays: a transparent film
- * hides the world from the camera, not from reflections, as in Cycles); returns the lanes that
- * hit something. */
+/* What a ray sees of the world along direction d: the background colour, or the world map (times
+ * the background's alpha for camera rays: a transparent film hides the world from the camera, not
+ * from reflections, as in Cycles). */
+static void background_along(const ub_scene *sc, int bounce, const double d[3], float seen[3])
+{
+    const ub_film *film = sc->film;
+    for (int i = 0; i < 3; i++)
+        seen[i] = film->background[i];
+    if (sc->world) {
+        world_radiance(sc->world, d, seen);
+        for (int i = 0; i < 3 && bounce == 0; i++)
+            seen[i] *= film->background[3];
+    }
+}
+
+/* Lanes of `alive` that missed everything see the world (unfogged, background_along); returns the
+ * lanes that hit something. */
 static int add_background(const ub_scene *sc, int bounce, int alive, const ub_packet_rays *pr,
                           const ub_trace_result *tr, ub_paths *ps)
 {
@@ -642,12 +655,10 @@ static int add_background(const ub_scene *sc, int bounce, int alive, const ub_pa
             hit_lanes |= 1 << l;
             continue;
         }
-        float seen[3] = {film->background[0], film->background[1], film->background[2]};
+        const double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+        float seen[3];
+        background_along(sc, bounce, d, seen);
         if (sc->world) {
-            double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-            world_radiance(sc->world, d, seen);
-            for (int i = 0; i < 3 && bounce == 0; i++)
-                seen[i] *= film->background[3];
             /* A path's diffuse or glossy bounce ray: world_light sampled the map for the rest. */
             if (ps->bounce_density[l] > 0.0) {
                 float share = (float)world_bounce_share(sc, d, ps->bounce_density[l]);
@@ -780,11 +791,12 @@ static int gi_continue(const gi_plan *plan, int l, ub_paths *ps)
 
 /* The local light of each hit lane (diffuse and ambient, fogged) into the paths, the first
  * bounce's passes, and the mirrored rays of the lanes that go on; returns those lanes. */
-static int add_surface_light(const ub_shading *sh, const ub_film *film, int bounce, int hit_lanes, const ub_surface *sf,
+static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, const ub_surface *sf,
                              const float direct[3][UB_LANES], const float shadow[UB_LANES],
                              const float ao[UB_LANES], const ub_trace_result *tr, const gi_plan *plan,
                              ub_packet_rays *pr, ub_paths *ps)
 {
+    const ub_shading *sh = sc->shading;
     int last = bounce >= sh->reflection_depth;
     int next = 0;
     /* With global illumination the bounces bring the light of the surroundings: no ambient term. */
@@ -797,8 +809,13 @@ static int add_surface_light(const ub_shading *sh, const ub_film *film, int boun
         float f = sh->fog_density > 0.0 ? (float)(1.0 - ub_exp(-sh->fog_density * tr->t[l])) : 0.0f;
         float local[3], dif[3], amb[3];
         int material = (sf->bsdf_lanes >> l) & 1;
-        /* A material's alpha: the surface covers that fraction; the background shows through the rest. */
-        float a = sf->alpha[l];
+        /* A material's alpha: the surface covers that fraction; the world behind it (the background
+         * colour or the World's map along the ray) shows through the rest. */
+        float a = sf->alpha[l], behind[3] = {0, 0, 0};
+        if (material && a < 1.0f) {
+            const double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+            background_along(sc, bounce, d, behind);
+        }
         for (int i = 0; i < 3; i++) {
             /* With a material the direct light went through its BSDF, colour included. */
             dif[i] = material ? (1.0f - r) * a * direct[i][l] : (1.0f - r) * sf->albedo[i][l] * direct[i][l];
@@ -806,7 +823,7 @@ static int add_surface_light(const ub_shading *sh, const ub_film *film, int boun
             local[i] = dif[i] + amb[i];
             if (material) {
                 amb[i] *= a;
-                local[i] = dif[i] + amb[i] + a * sf->emission[i][l] + (1.0f - a) * film->background[i];
+                local[i] = dif[i] + amb[i] + a * sf->emission[i][l] + (1.0f - a) * behind[i];
             }
             ps->L[i][l] += ps->W[l] * ps->tint[i][l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
             if (bounce > 0)
@@ -1003,7 +1020,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
                         ao[l] = 1.0f;
                 if (cancelled(sc))
                     return;
-                alive = add_surface_light(sh, film, bounce, hit_lanes, &sf, direct, shadow, ao, &tr,
+                alive = add_surface_light(sc, bounce, hit_lanes, &sf, direct, shadow, ao, &tr,
                                           sh->gi ? &plan : NULL, &pr, &ps);
             }
             write_passes(sc, sample, x, y, n, &ps, cnt);

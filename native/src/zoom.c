@@ -322,43 +322,97 @@ static void linear_map(const double z[4], double m[4][4])
     }
 }
 
-/* The perturbation's linear start (bilinear approximation's first row). While |delta_j| is below
- * UB_ZOOM_SKIP_TOLERANCE |Z_j|, delta_{j+1} = L_j delta_j (+ delta_c for the Mandelbrot slice) to
- * double's rounding, so K iterations from the start are one matrix: M_{K+1} = L M_K (Julia) or
- * L M_K + I (Mandelbrot, where delta_start = delta_1 = delta_c). |delta_j| <= |M_j|_F |delta_start|
- * (Frobenius: above the operator norm) gives each entry's radius, over j = start .. start + K. The bookkeeping takes |z_j| as
- * the reference's |Z_j|: they differ by the same relative 2^-30, far below the float32 estimate's
- * resolution. Returns the entries filled; fills skip_first, the lanes' shortcut into the table. */
+/* The symmetric product (u v + v u) / 2 = (u0 v0 - u.v, u0 v + v0 u) (quaternions; the cross
+ * products cancel): delta^2 = sym(delta, delta). */
+static void sym_half(const double u[4], const double v[4], double out[4])
+{
+    out[0] = u[0] * v[0] - (u[1] * v[1] + u[2] * v[2] + u[3] * v[3]);
+    for (int k = 1; k < 4; k++)
+        out[k] = u[0] * v[k] + v[0] * u[k];
+}
+
+/* One iteration of the series: A' = L A (+ I), B' = L B + (A x)^2 as coefficients of x_a x_b (the
+ * square of A x: sym(A_a, A_b) x_a x_b, twice for a < b). */
+static void series_step(const double l[4][4], const double a[4][4], const double b[4][UB_ZOOM_PAIRS], int julia,
+                        double na[4][4], double nb[4][UB_ZOOM_PAIRS])
+{
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++)
+            na[r][c] = l[r][0] * a[0][c] + l[r][1] * a[1][c] + l[r][2] * a[2][c] + l[r][3] * a[3][c]
+                       + (julia || r != c ? 0.0 : 1.0);
+    for (int p = 0; p < UB_ZOOM_PAIRS; p++) {
+        const int i = zoom_pair[p][0], k = zoom_pair[p][1];
+        const double ui[4] = {a[0][i], a[1][i], a[2][i], a[3][i]}, uk[4] = {a[0][k], a[1][k], a[2][k], a[3][k]};
+        double sq[4];
+        sym_half(ui, uk, sq);
+        for (int r = 0; r < 4; r++)
+            nb[r][p] = l[r][0] * b[0][p] + l[r][1] * b[1][p] + l[r][2] * b[2][p] + l[r][3] * b[3][p]
+                       + (i == k ? 1.0 : 2.0) * sq[r];
+    }
+}
+
+/* A^T Z / |Z|^2: the first-order change of log |Z + A x|^2 is 2 x . that. */
+static void log_slope(const double a[4][4], const double z[4], double out[4])
+{
+    const double z2 = norm2_of(z);
+    for (int c = 0; c < 4; c++)
+        out[c] = (a[0][c] * z[0] + a[1][c] * z[1] + a[2][c] * z[2] + a[3][c] * z[3]) / z2;
+}
+
+/* The perturbation's start as a series (zoom.h: the skip table): delta_j = A_j x + B_j(x, x) with
+ * delta_{j+1} = L_j delta_j + delta_j^2 (+ delta_c = x for the Mandelbrot slice, where x =
+ * delta_start = delta_1). Per iteration the terms dropped are 2 sym(a, b) + b^2 (a = A x, b =
+ * B(x, x)): at most 2 |a| |b|, below UB_ZOOM_SKIP_TOLERANCE of the kept |Z| |a| while |b_j| <=
+ * tolerance |Z_j| / 2; |B_j(x, x)| <= |B_j| |x|^2 with |B_j| the root of the sum over r of
+ * (sum of |B_j[r][.]|)^2 (|x_a x_b| <= |x|^2). The entry also keeps |A_j x| <= |A_j|_F |x| below
+ * sqrt(tolerance) |Z_j|, where the series ends anyway (b ~ a^2 / Z): far from a glitch (|z| <
+ * |delta|), and the entry K lands on holds it too, so no glitch (ub_zoom_iterate's test after
+ * each step) is skipped over. The bookkeeping follows the reference, to first order in x: Julia's
+ * log dr2 = sum log 4 |Z_j + a_j|^2 gains 2 x . A_j^T Z_j / |Z_j|^2 an iteration; Mandelbrot's dm
+ * <- 2 |z_j| dm + 1 gains the slope h <- 2 |Z_j| h + 2 dm A_j^T Z_j / |Z_j|. The second-order
+ * remainder of either is (2^-15)^2, below the tolerance. Returns the entries filled; fills
+ * skip_first, the lanes' shortcut into the table. */
 static int skip_table(ub_zoom *zm, int julia)
 {
-    const double identity[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
     const int start = julia ? 0 : 1;
-    double m[4][4];
-    memcpy(m, identity, sizeof m);
-    double radius = UB_ZOOM_SKIP_TOLERANCE * sqrt(norm2_of(zm->ref[start])) / 2.0; /* |I|_F = 2 */
-    double dr2 = 1.0, trap = norm2_of(zm->ref[start]);
+    double a[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+    double b[4][UB_ZOOM_PAIRS] = {{0}};
+    const double root_tolerance = sqrt(UB_ZOOM_SKIP_TOLERANCE);
+    double radius = root_tolerance * sqrt(norm2_of(zm->ref[start])) / 2.0; /* |I|_F = 2 */
+    double dr2 = 1.0, trap = norm2_of(zm->ref[start]), slope[4] = {0, 0, 0, 0};
     int count = 0;
     for (int j = start; j + 1 < zm->ref_length; j++) {
-        double l[4][4], next[4][4];
-        linear_map(zm->ref[j], l);
-        for (int r = 0; r < 4; r++)
+        const double *z = zm->ref[j];
+        double l[4][4], na[4][4], nb[4][UB_ZOOM_PAIRS], g[4];
+        linear_map(z, l);
+        log_slope(a, z, g);
+        const double size = sqrt(norm2_of(z));
+        for (int c = 0; c < 4; c++)
+            slope[c] = julia ? slope[c] + 2.0 * g[c] : 2.0 * size * slope[c] + 2.0 * dr2 * size * g[c];
+        dr2 = julia ? dr2 * 4.0 * norm2_of(z) : 2.0 * size * dr2 + 1.0;
+        series_step(l, a, b, julia, na, nb);
+        memcpy(a, na, sizeof a);
+        memcpy(b, nb, sizeof b);
+        double frob = 0.0, quad = 0.0;
+        for (int r = 0; r < 4; r++) {
+            double row = 0.0;
             for (int c = 0; c < 4; c++)
-                next[r][c] = l[r][0] * m[0][c] + l[r][1] * m[1][c] + l[r][2] * m[2][c] + l[r][3] * m[3][c]
-                             + (julia ? 0.0 : identity[r][c]);
-        memcpy(m, next, sizeof m);
-        /* The entry K lands on holds the criterion too: there |z_K| > |delta_K|, so no glitch
-         * (ub_zoom_iterate's test after each step) is skipped over. */
-        double frob = 0.0;
-        for (int r = 0; r < 4; r++)
-            for (int c = 0; c < 4; c++)
-                frob += m[r][c] * m[r][c];
-        radius = fmin(radius, UB_ZOOM_SKIP_TOLERANCE * sqrt(norm2_of(zm->ref[j + 1])) / sqrt(frob));
-        dr2 = julia ? dr2 * 4.0 * norm2_of(zm->ref[j]) : 2.0 * sqrt(norm2_of(zm->ref[j])) * dr2 + 1.0;
+                frob += a[r][c] * a[r][c];
+            for (int p = 0; p < UB_ZOOM_PAIRS; p++)
+                row += fabs(b[r][p]);
+            quad += row * row;
+        }
+        const double next = sqrt(norm2_of(zm->ref[j + 1]));
+        radius = fmin(radius, root_tolerance * next / sqrt(frob));
+        if (quad > 0.0)
+            radius = fmin(radius, sqrt(UB_ZOOM_SKIP_TOLERANCE * next / (2.0 * sqrt(quad))));
         trap = fmin(trap, norm2_of(zm->ref[j + 1]));
         if (!(radius > 1e-300) || !(dr2 < 1e300))
             break; /* nothing more to skip (or about to overflow) */
         count = j + 1 - start;
-        memcpy(zm->skip[count].matrix, m, sizeof m);
+        memcpy(zm->skip[count].matrix, a, sizeof a);
+        memcpy(zm->skip[count].quad, b, sizeof b);
+        memcpy(zm->skip[count].dr2_slope, slope, sizeof slope);
         zm->skip[count].radius = radius;
         zm->skip[count].dr2 = dr2;
         zm->skip[count].trap = trap;
@@ -472,6 +526,20 @@ ub_zoom_path ub_zoom_choose_path(const ub_object *o, double eps_local)
 
 /* ------------------------------------------------------------------ the estimate */
 
+/* Whether the point's delta is large enough to iterate directly (UB_ZOOM_DIRECT_RATIO). */
+static int zoom_may_go_direct(const double delta[4], const double z[4], const double c[4])
+{
+    return norm2_of(delta) >= UB_ZOOM_DIRECT_RATIO * (norm2_of(z) + norm2_of(c));
+}
+
+/* Leave the reference: delta becomes z itself, and each step adds the full c. */
+static void zoom_go_direct(ub_zoom_state *s)
+{
+    memcpy(s->delta, s->z, sizeof s->delta);
+    memcpy(s->dc, s->c_full, sizeof s->dc);
+    s->direct = 1;
+}
+
 /* zh + hz = (2(ap - v.w), 2(aw + pv)) for z = (a, v), h = (p, w): the cross products cancel. */
 static void sym_product(const double z[4], const double h[4], double out[4])
 {
@@ -537,11 +605,19 @@ void ub_zoom_start(const ub_object *o, int path, const double u_q[4], int want, 
         int K = lo;
         if (K > 0 && K < o->max_iterations) {
             const double(*m)[4] = zm->skip[lo].matrix;
-            double nd[4];
-            for (int r = 0; r < 4; r++)
-                nd[r] = m[r][0] * s->delta[0] + m[r][1] * s->delta[1] + m[r][2] * s->delta[2] + m[r][3] * s->delta[3];
-            memcpy(s->delta, nd, sizeof s->delta);
-            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the same maps (Mandelbrot: J_1 = B = dc/du) */
+            const double *x = s->delta;
+            double nd[4], pairs[UB_ZOOM_PAIRS];
+            for (int p = 0; p < UB_ZOOM_PAIRS; p++)
+                pairs[p] = x[zoom_pair[p][0]] * x[zoom_pair[p][1]];
+            for (int r = 0; r < 4; r++) {
+                double quad = 0.0;
+                for (int p = 0; p < UB_ZOOM_PAIRS; p++)
+                    quad += zm->skip[lo].quad[r][p] * pairs[p];
+                nd[r] = (m[r][0] * x[0] + m[r][1] * x[1] + m[r][2] * x[2] + m[r][3] * x[3]) + quad;
+            }
+            const double *g = zm->skip[lo].dr2_slope, gx = g[0] * x[0] + g[1] * x[1] + g[2] * x[2] + g[3] * x[3];
+            if (want & UB_WANT_JACOBIAN) /* the Jacobian follows the linear part (Mandelbrot: J_1 = B = dc/du); the
+                                         * second order's 2 B(x, .) is ~2^-15 of it: < 0.002 degrees of normal */
                 for (int a = 0; a < 3; a++) {
                     double nj[4];
                     for (int r = 0; r < 4; r++)
@@ -549,19 +625,22 @@ void ub_zoom_start(const ub_object *o, int path, const double u_q[4], int want, 
                                 + m[r][3] * s->j[a][3];
                     memcpy(s->j[a], nj, sizeof nj);
                 }
+            memcpy(s->delta, nd, sizeof s->delta);
             s->index += K;
             s->n = K;
             for (int k = 0; k < 4; k++)
                 s->z[k] = zm->ref[s->index][k] + s->delta[k];
             s->r2 = norm2_of(s->z);
             if (julia)
-                s->dr2 = zm->skip[lo].dr2;
+                s->dr2 = zm->skip[lo].dr2 * (1.0 + gx);
             else
-                s->dm = zm->skip[lo].dr2;
+                s->dm = zm->skip[lo].dr2 + gx;
             s->trap = zm->skip[lo].trap;
             s->gscale = ldexp(1.0, -K);
         }
     }
+    if (!s->direct && zoom_may_go_direct(s->delta, s->z, s->c_full))
+        zoom_go_direct(s);
 }
 
 void ub_zoom_iterate(const ub_object *o, ub_zoom_state *s, int want)
@@ -598,10 +677,8 @@ void ub_zoom_iterate(const ub_object *o, ub_zoom_state *s, int want)
             /* The reference escaped (or its storage ended) before this point: go on directly.
              * The point's orbit is the size of the escape radius here, where double's rounding
              * is harmless. */
-            memcpy(delta, z, sizeof s->delta);
-            memcpy(dc, s->c_full, sizeof s->dc);
+            zoom_go_direct(s);
             orbit = NULL;
-            s->direct = 1;
         }
         /* delta <- Z delta + delta Z + delta^2 + dc, with Z = 0 when there is no reference. */
         double nd[4];
@@ -626,7 +703,10 @@ void ub_zoom_iterate(const ub_object *o, ub_zoom_state *s, int want)
             s->index++;
             for (int k = 0; k < 4; k++)
                 z[k] = orbit[s->index][k] + delta[k];
-            if (norm2_of(z) < norm2_of(delta)) {
+            if (zoom_may_go_direct(delta, z, s->c_full)) {
+                zoom_go_direct(s);
+                orbit = NULL;
+            } else if (norm2_of(z) < norm2_of(delta)) {
                 /* Glitch: rebase onto the critical orbit, whose entry 0 is the critical point 0
                  * (the Julia reference cannot serve; for the Mandelbrot set it is the anchor's own
                  * orbit from 0, and delta_c stays). */

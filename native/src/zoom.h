@@ -52,13 +52,30 @@ typedef struct {
  * the whole set's bounding ball is 10^zoom local units across, far beyond float32's reach. */
 #define UB_ZOOM_VIEW_RADIUS 64.0
 
-/* Skip table: entry K holds the first K iterations of the perturbation as one linear (Julia) or
- * affine (Mandelbrot: + delta_c) map, for every K (no stride: a point skips as far as its own
- * delta_0 allows). An iteration is linear to within UB_ZOOM_SKIP_TOLERANCE (relative) when
- * |delta_j| <= that fraction of |Z_j|: the dropped delta^2 is then ~1e-9 of what is kept, as if the
- * point moved by ~1e-7 of its local offset over a hundred skipped iterations: below float32's
- * resolution of that offset (measured: the referee's figures do not change from 2^-40 to 2^-30). */
+/* Skip table: entry K holds the first K iterations of the perturbation as a quadratic map of the
+ * start's delta (the series approximation, to second order: delta_K = A_K delta + B_K(delta, delta),
+ * + delta_c's share for the Mandelbrot set), for every K (no stride: a point skips as far as its own
+ * delta allows). What the second order drops per iteration is 2 a b + b^2 (a, b the first- and
+ * second-order parts); it is below UB_ZOOM_SKIP_TOLERANCE of the linear term Z delta + delta Z
+ * while |b_j| <= that fraction of |Z_j| / 2, i.e. while |delta_j| is below about
+ * sqrt(UB_ZOOM_SKIP_TOLERANCE) = 2^-15 of |Z_j|, where a first-order table stops at 2^-30: some 24
+ * iterations further at zoom 30 (delta gains ~0.6 bits an iteration). Per iteration the relative
+ * error is the same 2^-30 as the first-order table's: ~1e-9 of what is kept, as if the point moved by
+ * ~1e-7 of its local offset over a hundred skipped iterations, below float32's resolution of that
+ * offset (measured: the referee's figures do not change from 2^-40 to 2^-30). */
 #define UB_ZOOM_SKIP_TOLERANCE 0x1p-30
+/* A point whose delta has grown to UB_ZOOM_DIRECT_RATIO of its orbit's scale leaves the reference
+ * and iterates z <- z^2 + c directly in double (cheaper: no reference, no glitch test). With
+ * |delta|^2 >= 2^-34 (|z|^2 + |c|^2), a step's rounding (2^-53 of |z|^2 + |c|) is at most ~2^-36 of
+ * delta: 64 times below UB_ZOOM_SKIP_TOLERANCE. |c| is in the scale because the rounding of + c is
+ * absolute: a delta tiny beside c (an orbit near 0, a glitch) must stay on a reference (rebased).
+ * After the second-order skip delta is ~2^-15 of |Z|, so the points leave the reference at once. */
+#define UB_ZOOM_DIRECT_RATIO 0x1p-34
+
+/* The pairs a <= b of a quaternion's components: the second-order coefficients per component. */
+#define UB_ZOOM_PAIRS 10
+static const int zoom_pair[UB_ZOOM_PAIRS][2] = {{0, 0}, {0, 1}, {0, 2}, {0, 3}, {1, 1},
+                                                {1, 2}, {1, 3}, {2, 2}, {2, 3}, {3, 3}};
 
 /* The formula kinds (Mandelbulb, Mandelbox, KIFS, hybrid: zoom_formulas.c) zoom in double only:
  * their maps are no polynomials in the point (folds, the triplex angles), so no perturbation
@@ -94,15 +111,18 @@ typedef struct {
     int ref_length, crit_length;
     double ref[UB_ZOOM_MAX_ORBIT + 1][4];
     double crit[UB_ZOOM_MAX_ORBIT + 1][4];
-    /* The perturbation's linear start, skipped (zoom.c: skip_table): entry K covers the first K
+    /* The perturbation's start, skipped (zoom.c: skip_table): entry K covers the first K
      * iterations from the reference's start (Julia: entry 0; Mandelbrot: entry 1, delta_1 =
-     * delta_c), valid for |delta_start| <= radius: delta_{start+K} = matrix delta_start, and what the
-     * skipped iterations add to the estimate's bookkeeping. */
+     * delta_c), valid for |delta_start| = |x| <= radius: delta_{start+K} = matrix x + sum over the
+     * pairs a <= b of quad[.][pair] x_a x_b (UB_ZOOM_PAIRS, in zoom.c's pair order), and what the
+     * skipped iterations add to the estimate's bookkeeping, to first order in x. */
     int skip_count;
     struct {
         double matrix[4][4];
-        double radius;    /* largest |delta_start| for which the quadratic terms stay below UB_ZOOM_SKIP_TOLERANCE */
+        double quad[4][UB_ZOOM_PAIRS]; /* B_K: the coefficient of x_a x_b (a <= b) in component r */
         double dr2;       /* Julia: prod 4 |Z_j|^2; Mandelbrot: Milnor's dm <- 2 |Z_j| dm + 1 (from 1) */
+        double dr2_slope[4]; /* Julia: d log(dr2) / dx; Mandelbrot: d dm / dx (|z_j| is not |Z_j|) */
+        double radius;    /* largest |x| for which the dropped terms stay below UB_ZOOM_SKIP_TOLERANCE */
         double trap;      /* min |Z_j|^2 over the start and the K iterations */
     } skip[UB_ZOOM_MAX_ORBIT + 1];
     /* The lanes' search (zoom_lanes.h): per binary exponent e + 1023 of |delta_start| (e in

@@ -156,3 +156,19 @@ def test_a_huge_world_map_is_refused():
 def test_world_samples_is_a_shading_parameter():
     row = uc.PARAMETERS["shading"]["world_samples"]
     assert (row["min"], row["max"], row["default"]) == (0, 64, 1)
+
+
+def test_a_materials_alpha_shows_the_world_behind_it_not_the_background_colour():
+    """A material's Alpha below 1 lets the world through, as Cycles' transparency does: where a World
+    map is set, what shows through is the map along the ray, not the flat background colour (which a
+    World replaces everywhere else too). A black, non-specular, non-emitting surface of alpha a over a
+    uniform world of radiance L: every ball pixel is (1 - a) L; the background colour (red) is nowhere."""
+    radiance, alpha = np.array([0.2, 0.4, 0.6], np.float32), 0.25
+    cam = make_camera(32, 24, eye=(0.0, -6.0, 0.0))
+    ball = dict(BALL, use_material=True, material_base_color=(0.0, 0.0, 0.0), material_specular_ior_level=0.0,
+                material_alpha=alpha)
+    passes, _ = render(cam, [ball], names=["combined"], world=uniform_world(radiance), background=(1, 0, 0, 1),
+                       shading=dict(ambient=(0.0, 0.0, 0.0)))
+    inner, _, _ = ball_pixels(cam)
+    np.testing.assert_allclose(passes["combined"][inner][:, :3], np.broadcast_to((1 - alpha) * radiance, (inner.sum(), 3)),
+                               rtol=1e-5, atol=1e-6)
