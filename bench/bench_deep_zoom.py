@@ -19,8 +19,8 @@ threshold, --res, --threads. Interleaved, --repeats times:
   double   zoom 3 (the hit threshold is far above double's resolution there: the double path);
   perturb  zoom 10, 20, 30 (the perturbation path).
 
-Printed: median wall time, min-max, the CPU time (process, all threads) and the ratios to the
-float32 run of the same iteration count.
+Printed: median wall time, min-max, the CPU time (process, all threads), the ratios to the
+float32 run of the same iteration count, and the marching steps per camera ray.
 
     python bench/bench_deep_zoom.py [--repeats 5] [--res 160x120] [--threads 2] [--simd auto]
 """
@@ -61,7 +61,7 @@ def run(camera, obj, threads, simd):
     passes = {n: np.zeros((h, w, uc.PASS_CHANNELS[n]), np.float32) for n in ("combined", "depth")}
     wall, cpu = time.perf_counter(), time.process_time()
     stats = uc.render(camera, [obj], passes, threads=threads, simd=simd)
-    return time.perf_counter() - wall, time.process_time() - cpu, passes, stats["iterations"]
+    return time.perf_counter() - wall, time.process_time() - cpu, passes, stats
 
 
 def main():
@@ -94,24 +94,27 @@ def main():
     same_view = ref.iterations_for_zoom(BASE_ITERATIONS, 3)
     runs[SAME_VIEW] = (camera(at_anchor, 1e-3), dict(mu=MU, max_iterations=same_view), same_view)
     times = {name: ([], []) for name in runs}
-    coverage, iteration_count = {}, {}
+    coverage, iteration_count, steps = {}, {}, {}
     for _ in range(args.repeats):
         for name, (cam, obj, _) in runs.items():
-            wall, cpu, passes, iteration_count[name] = run(cam, obj, args.threads, args.simd)
+            wall, cpu, passes, stats = run(cam, obj, args.threads, args.simd)
+            iteration_count[name] = stats["iterations"]
+            steps[name] = stats["steps"] / stats["rays"]
             times[name][0].append(wall)
             times[name][1].append(cpu)
             coverage[name] = float((passes["depth"] < 1e9).mean())
     print("%dx%d, %d threads, %d repeats; median wall s (min-max), median CPU s, ratios to float32 at the same "
           "iterations (double zoom 3: to the same view; wall, CPU); coverage; iterations of f in the frame; "
-          "CPU ns per iteration" % (width, height, args.threads, args.repeats))
+          "CPU ns per iteration; marching steps per ray" % (width, height, args.threads, args.repeats))
     for name, (cam, obj, iterations) in runs.items():
         wall, cpu = times[name]
         base = times[SAME_VIEW if name in ("double zoom 3", SAME_VIEW) else "float32 zoom 0, %d iterations" % iterations]
         ratio = statistics.median(wall) / statistics.median(base[0])
         cpu_ratio = statistics.median(cpu) / statistics.median(base[1])
-        print("  %-34s %7.3f (%.3f-%.3f)  cpu %7.3f   x%5.1f  cpu x%5.1f   %.2f  %10d  %6.1f"
+        print("  %-34s %7.3f (%.3f-%.3f)  cpu %7.3f   x%5.1f  cpu x%5.1f   %.2f  %10d  %6.1f  %5.1f"
               % (name, statistics.median(wall), min(wall), max(wall), statistics.median(cpu), ratio, cpu_ratio,
-                 coverage[name], iteration_count[name], 1e9 * statistics.median(cpu) / iteration_count[name]))
+                 coverage[name], iteration_count[name], 1e9 * statistics.median(cpu) / iteration_count[name],
+                 steps[name]))
 
 
 if __name__ == "__main__":

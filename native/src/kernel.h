@@ -38,6 +38,7 @@ static inline int cancelled(const ub_scene *sc)
 
 #include "estimators.h"
 #include "march.h"
+#include "cone.h"
 #include "bsdf.h"
 #include "shading.h"
 
@@ -131,14 +132,18 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
         dps[k].cancel = sc->cancel;
     }
     const sample_point sp = sample_point_of(sample);
+    if (sc->cones)
+        cone_fill(sc, dps, tx0, ty0, tx1, ty1, cnt);
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
             if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             ub_packet_rays pr;
-            int seen = camera_packet(sc->camera, hb->x0 + hb->step * x, hb->y0 + hb->step * y, hb->step, n, &sp,
-                                     &pr);
+            int px = hb->x0 + hb->step * x, py = hb->y0 + hb->step * y;
+            int seen = camera_packet(sc->camera, px, py, hb->step, n, &sp, &pr);
+            if (sc->cones) /* shared first steps: each ray starts where its block's cone is empty */
+                cone_start_rays(sc, px, py, hb->step, n, &pr);
             ub_trace_result tr;
             /* Lanes outside a panoramic camera's lens come back as misses (UB_HIT_NONE). */
             trace(sc, dps, &pr, ((1 << n) - 1) & seen, sc->shading->sea ? UB_TRACE_SEA : 0, NULL, &tr, cnt);

@@ -219,10 +219,28 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     res->iters = iters;
     res->dist = dw;
     /* Optional refinement: bisect between the last sample outside the threshold and the hit.
-     * Shadow rays only ask whether something is hit, not where. */
+     * Shadow rays only ask whether something is hit, not where.
+     * Issue 21: a lane stops refining, before bisection_steps (the maximum), once its bracket is
+     * narrower than what the pixel can show:
+     *   - 1/32 of the hit threshold there. The threshold is the resolution the render asks for
+     *     (the pixel footprint / detail, or the fixed epsilon): every point within it of the set
+     *     is surface, so the drawn surface is only defined to a threshold; placing it to 1/32 of
+     *     one moves a hit by at most 1/(32 detail) of a pixel's footprint (measured on the peer
+     *     scene: relative depth within 1.2e-4 of the float64 march's for 99 % of the hits, 2.2e-5
+     *     of the full bisection's, and 0.6 % of the pixels' colours change by more than 1/255);
+     *   - float32's resolution of s (resolution()): below it the midpoint rounds to lo or hi and
+     *     further steps change nothing.
+     * The initial bracket, the last step, is about a threshold long or more (the sample before
+     * the hit was not within one), so with step_factor 1 about 5 or more of the default 10 steps
+     * remain: on the peer scene 13.6 of its 81.7 iterations of f per ray are saved. */
     vm refine = refine_hits ? hit : m_false();
     vf lo = prev, hi = s;
-    for (int k = 0; k < o->bisection_steps && m_bits(refine) && !cancelled(sc); k++) {
+    const vf fraction = v_set1(1.0f / 32.0f);
+    for (int k = 0; k < o->bisection_steps && !cancelled(sc); k++) {
+        vf width_limit = v_max(v_mul(threshold(dp, v_add(tb, hi)), fraction), resolution(hi));
+        refine = m_and(refine, v_gt(v_sub(hi, lo), width_limit));
+        if (!m_bits(refine))
+            break;
         vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
         de(dp, refine, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]), v_fma(mid, qd[2], q0[2]),
                   v_fma(mid, qd[3], q0[3]), &dist, &iters);

@@ -261,6 +261,9 @@ static const ub_param render_rows[] = {
     REAL(R, poll_interval, 1e-4, 1.0, D(0.01), "seconds between progress and cancel polls"),
     VECTOR(R, background, 4, 0.0, 1e6, NULL, 0, "premultiplied RGBA of missed pixels (alpha within [0, 1])"),
     INTEGER(R, stride, 1, 4096, D(1.0), "render the image pixels (x + stride i, y + stride j) of the window only"),
+    INTEGER(R, shared_steps, 0, 1, D(1),
+            "1: the camera rays of each 8 x 8 block of pixels start where one cone marched for the block is empty of "
+            "the scene (projection cameras without depth of field; issue 21); 0: every ray marches from the clip plane"),
     VECTOR(R, sample_range, 2, -HUGE_VAL, HUGE_VAL, NULL, UB_PARAM_NONE_OK,
            "2 integers (first, count): these samples, added to buffers holding the earlier ones' sum"),
     {"progress", UB_PARAM_CUSTOM, 0, 1, 1, 0, 0, NULL, NULL, UB_PARAM_NONE_OK,

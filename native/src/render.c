@@ -59,6 +59,8 @@ int ub_cpu_count(void)
     return n > UB_MAX_THREADS ? UB_MAX_THREADS : n;
 }
 
+static void cone_cache_free(ub_cone_cache *c);
+
 typedef struct {
     const ub_scene *scene;
     ub_tile_kernel kernel;
@@ -221,6 +223,39 @@ static void hit_buffer_give_back(ub_hit *hits)
     free(__atomic_exchange_n(&spare_hit_block, block, __ATOMIC_ACQ_REL));
 }
 
+/* The blocks of shared first steps (issue 21) under the hit buffer's pixels, all not yet
+ * computed; none (start NULL) where the cone does not apply: panoramic cameras (rays not
+ * through a plane) and depth of field (rays from all over the lens), which keep their rays as
+ * they were, and renders that ask for none (shared_steps 0). Returns 0 only when memory ran out. */
+static int cone_cache_alloc(const ub_scene *sc, const ub_hit_buffer *hb, int wanted, ub_cone_cache *c)
+{
+    memset(c, 0, sizeof *c);
+    const ub_camera *cam = sc->camera;
+    if (!wanted || cam->panorama != UB_PANORAMA_NONE || cam->aperture > 0.0 || sc->object_count == 0 || hb->w <= 0
+        || hb->h <= 0)
+        return 1;
+    c->bx0 = hb->x0 / UB_CONE_BLOCK;
+    c->by0 = hb->y0 / UB_CONE_BLOCK;
+    c->nbx = (hb->x0 + hb->step * (hb->w - 1)) / UB_CONE_BLOCK - c->bx0 + 1;
+    c->nby = (hb->y0 + hb->step * (hb->h - 1)) / UB_CONE_BLOCK - c->by0 + 1;
+    size_t n = (size_t)c->nbx * (size_t)c->nby;
+    c->start = malloc(n * sizeof *c->start);
+    c->ready = calloc(n, sizeof *c->ready);
+    if (!c->start || !c->ready) {
+        cone_cache_free(c);
+        return 0;
+    }
+    return 1;
+}
+
+static void cone_cache_free(ub_cone_cache *c)
+{
+    free(c->start);
+    free(c->ready);
+    c->start = NULL;
+    c->ready = NULL;
+}
+
 const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub_render_stats *stats)
 {
     memset(stats, 0, sizeof *stats);
@@ -251,13 +286,17 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     hb.hits = hit_buffer_take((size_t)hb.w * (size_t)hb.h);
     ub_scene scene = *scene_in;
     scene.hits = &hb;
+    ub_cone_cache cones;
+    int cones_ok = cone_cache_alloc(scene_in, &hb, opt->shared_steps, &cones);
+    scene.cones = cones.start ? &cones : NULL;
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
     ub_counters *per_thread = calloc((size_t)threads, sizeof(ub_counters));
     ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
-    if (!per_thread || !workers || !hb.hits) {
+    if (!per_thread || !workers || !hb.hits || !cones_ok) {
         free(per_thread);
         free(workers);
         hit_buffer_give_back(hb.hits);
+        cone_cache_free(&cones);
         return "out of memory (the image is too large for this machine)";
     }
     double t0 = ub_monotonic_seconds();
@@ -294,5 +333,6 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     free(per_thread);
     free(workers);
     hit_buffer_give_back(hb.hits);
+    cone_cache_free(&cones);
     return NULL;
 }

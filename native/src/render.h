@@ -20,6 +20,7 @@ typedef struct {
      * into buffers that hold the earlier ones (their undivided sum): the viewport accumulates a
      * sample at a time, and the last one divides as a whole render does. sample_count 0: all. */
     int first_sample, sample_count;
+    int shared_steps; /* shared first steps per block of pixels (kernel cone.h); 0: off */
 } ub_render_options;
 
 typedef struct {

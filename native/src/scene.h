@@ -382,6 +382,18 @@ static inline double ub_luminance(double r, double g, double b)
 const char *ub_world_prepare(ub_world *world, const float *rgb, int w, int h);
 void ub_world_release(ub_world *world);
 
+/* Issue 21: shared first steps. The full image is cut into UB_CONE_BLOCK x UB_CONE_BLOCK blocks
+ * of pixels (absolute image coordinates, so a block is the same whatever window, band or
+ * sub-grid is rendered); one cone through the whole area of a block's pixels is marched once
+ * per render (kernel cone.h), and every camera ray of the block starts where the cone is
+ * certified empty. Block (bx, by) is entry (by - by0) * nbx + (bx - bx0). */
+#define UB_CONE_BLOCK 8
+typedef struct {
+    int bx0, by0, nbx, nby;
+    double *start; /* per block: the distance from the camera every ray of the block may start at */
+    int *ready;    /* per block, atomic: 1 once start is written (any thread computes the same bits) */
+} ub_cone_cache;
+
 typedef struct {
     const ub_camera *camera;
     const ub_object *objects;
@@ -395,6 +407,7 @@ typedef struct {
      * few ms of one thread's work at any setting the parameter table allows. */
     volatile int *cancel;
     const ub_world *world;  /* NULL: no world map (missed rays see the film's background colour) */
+    ub_cone_cache *cones;   /* NULL: camera rays start at the clip plane (render.c: which cameras) */
 } ub_scene;
 
 /* Sub-pixel offset of anti-aliasing sample s: Halton (2, 3) shifted so sample 0 is the centre. */

@@ -1,0 +1,301 @@
+/* Shared first steps (issue 21): one cone per block of UB_CONE_BLOCK x UB_CONE_BLOCK pixels,
+ * marched by unbounding spheres (section 3) until the spheres no longer hold the cone, then every
+ * camera ray of the block starts there. Included by kernel.h after march.h.
+ *
+ * Why it is exact. Section 3's unbounding sphere: a lower bound L of the distance from a point c
+ * to the set certifies that the ball B(c, L) holds no point of it. Every camera ray of a block is
+ * p(l) = o + l u with |p(l) - c(l)| <= r(l) = spread0 + spread1 l, where c(l) = origin + l axis is
+ * the cone's axis at the same distance l: |p(l) - c(l)| <= |o - origin| + l |u - axis|, and both
+ * are largest at the block's corners (a projection maps the block's rectangle onto a plane
+ * quadrilateral: the rays' origins are an affine image of it (orthographic), their directions
+ * its central projection onto the unit sphere, a spherical polygon inside any cap that holds its
+ * corners). Then for l in [t, t + g]: |p(l) - c(t)| <= |p(l) - p(t)| + |p(t) - c(t)|
+ * <= g |u| + r(t), so with g = (L - r(t)) / |u|_max the whole piece [t, t + g] of every ray of
+ * the block lies in B(c(t), L): no ray can meet the set there. By induction every ray is empty up
+ * to the cone's last t, and may start there instead of at the clip plane; its march continues
+ * unchanged. L is the smallest over the scene of:
+ *   - per object, the larger of the distance to its bounding ball (section 3.4; the set is
+ *     inside) and, near the ball and for objects with a proven bound (obj->exact), the distance
+ *     estimate in world units as the march takes it (times step_factor, at most max_step), less
+ *     the hit threshold at the far end of the ball: every point the cone skips is at least a
+ *     threshold from the set, so a ray that would have stopped on a thin piece of the set (section
+ *     3.3, a hit below the threshold) still meets it in its own march;
+ *   - with the sea, the distance to its plane: the sea is hit analytically from the ray's t_min,
+ *     which therefore never passes it.
+ * Empirical estimates (section 5: stacks, cubic locus, Mandelbulb, Mandelbox, hybrids) are not
+ * trusted off the ray: for them only the bounding ball counts, so the cone stops at their ball.
+ *
+ * Same bits everywhere: a block's start is a pure function of the block and the scene (never of
+ * which of its pixels are rendered, the window, the band, the sub-grid step, the thread or the
+ * lane it is computed in: lanes never interact, and every kernel gives the same estimate), so
+ * any thread may compute it and they all write the same value. */
+
+/* At most this many steps per cone (grazing cones creep past a surface in small steps). */
+#define UB_CONE_MAX_STEPS 48
+
+/* An object's bounding ball in world space (centre, radius), grown by far more than rounding:
+ * no point of the set is outside. The object's affine map is world_to_object's inverse. */
+static void world_ball(const ub_object *o, double centre[3], double *radius)
+{
+    const double(*w)[4] = o->world_to_object;
+    double det = w[0][0] * (w[1][1] * w[2][2] - w[1][2] * w[2][1]) - w[0][1] * (w[1][0] * w[2][2] - w[1][2] * w[2][0])
+               + w[0][2] * (w[1][0] * w[2][1] - w[1][1] * w[2][0]);
+    double b[3];
+    for (int i = 0; i < 3; i++)
+        b[i] = o->bound_center[i] - w[i][3];
+    /* Cramer's rule: column j of w replaced by b. */
+    for (int j = 0; j < 3; j++) {
+        double m[3][3];
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++)
+                m[r][c] = c == j ? b[r] : w[r][c];
+        centre[j] = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                     + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+                  / det;
+    }
+    double size = fabs(centre[0]) + fabs(centre[1]) + fabs(centre[2]) + o->bound_radius * o->sigma_max;
+    *radius = o->bound_radius * o->sigma_max * (1.0 + 1e-6) + 1e-9 * size;
+}
+
+typedef struct {
+    double origin[3][UB_LANES], axis[3][UB_LANES];
+    double spread0[UB_LANES], spread1[UB_LANES]; /* r(t) = spread0 + spread1 t */
+    double speed[UB_LANES];                      /* largest |u| of a ray of the block */
+    double beyond[UB_LANES]; /* past this t no ray of the block is in any object's bounding ball */
+} block_cones;
+
+static inline double distance3(const double a[3], const double b[3])
+{
+    double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
+    return sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+}
+
+/* Largest |M v| over unit v of the camera's rotation columns: 1 for Blender's cameras (unit
+ * columns, camera.c, at right angles); a sheared matrix gets the Frobenius norm, an upper bound. */
+static double camera_speed(const ub_camera *cam)
+{
+    const double(*m)[4] = cam->cam_to_world;
+    double frobenius = 0.0, skew = 0.0;
+    for (int a = 0; a < 3; a++) {
+        for (int r = 0; r < 3; r++)
+            frobenius += m[r][a] * m[r][a];
+        for (int b = a + 1; b < 3; b++)
+            skew = fmax(skew, fabs(m[0][a] * m[0][b] + m[1][a] * m[1][b] + m[2][a] * m[2][b]));
+    }
+    return skew < 1e-9 ? 1.0 + 1e-6 : sqrt(frobenius) * (1.0 + 1e-6);
+}
+
+/* The cone of block (bx, by) into lane l: the axis through the block's centre, the spreads from
+ * its corners (the pixels' areas: every sample offset in [0, 1) stays inside). */
+static void block_cone(const ub_scene *sc, const double (*ball_centre)[3], const double *ball_radius, int bx, int by,
+                       int l, block_cones *bc)
+{
+    const ub_camera *cam = sc->camera;
+    const int orthographic = cam->orthographic;
+    const double size = UB_CONE_BLOCK, x0 = size * bx, y0 = size * by;
+    double ov[3], dv[3], t0, t1, origin[3], axis[3];
+    projection_ray_view_kind(cam, orthographic, x0 + 0.5 * size, y0 + 0.5 * size, ov, dv, &t0, &t1);
+    view_to_world(cam, ov, dv, origin, axis);
+    double spread0 = 0.0, spread1 = 0.0;
+    for (int corner = 0; corner < 4; corner++) {
+        double o[3], d[3];
+        projection_ray_view_kind(cam, orthographic, x0 + size * (corner & 1), y0 + size * (corner >> 1), ov, dv,
+                                 &t0, &t1);
+        view_to_world(cam, ov, dv, o, d);
+        spread0 = fmax(spread0, distance3(o, origin));
+        spread1 = fmax(spread1, distance3(d, axis));
+    }
+    for (int i = 0; i < 3; i++) {
+        bc->origin[i][l] = origin[i];
+        bc->axis[i][l] = axis[i];
+    }
+    /* Margins far above the rounding of the pixels' own rays (a few 1e-16 relative). */
+    double scale = 1.0 + fabs(origin[0]) + fabs(origin[1]) + fabs(origin[2]);
+    bc->spread0[l] = spread0 * (1.0 + 1e-6) + 1e-12 * scale;
+    bc->spread1[l] = spread1 * (1.0 + 1e-6) + 1e-12;
+    bc->speed[l] = camera_speed(cam);
+    /* A ray point p(t) in ball k has |c(t) - centre| <= radius + r(t), and |c(t) - centre| >=
+     * t |axis| - |origin - centre|: impossible once t (|axis| - spread1) exceeds
+     * |origin - centre| + radius + spread0. */
+    double along = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]) * (1.0 - 1e-6) - bc->spread1[l];
+    bc->beyond[l] = along > 0.0 ? 0.0 : HUGE_VAL;
+    for (int k = 0; k < sc->object_count && along > 0.0; k++)
+        if (ball_radius[k] >= 0.0)
+            bc->beyond[l] = fmax(bc->beyond[l],
+                                 (distance3(origin, ball_centre[k]) + ball_radius[k] + bc->spread0[l]) / along * (1.0 + 1e-6));
+}
+
+/* Lower bounds of the distance from the points c (world) to object o, less its hit threshold,
+ * into clear (smallest so far) for the lanes `open`; t: the points' distance along the cone. */
+static void object_clearance(const ub_object *o, const ub_de_params *dp, int open, const double c[3][UB_LANES],
+                             const double t[UB_LANES], double clear[UB_LANES], uint64_t iterations[UB_LANES])
+{
+    if (o->bound_radius < 0.0) /* the slice misses the set: no ray meets it (object_rays) */
+        return;
+    /* Lane loops over plain arrays: the compiler makes double-precision vector code of them (the
+     * same bits in any vector width: + - * / sqrt only, no contraction). */
+    const double(*w)[4] = o->world_to_object;
+    double oc[3][UB_LANES], ball[UB_LANES];
+    float q[4][UB_LANES];
+    for (int i = 0; i < 3; i++)
+        for (int l = 0; l < UB_LANES; l++)
+            oc[i][l] = w[i][0] * c[0][l] + w[i][1] * c[1][l] + w[i][2] * c[2][l] + w[i][3];
+    for (int l = 0; l < UB_LANES; l++) {
+        double r0 = oc[0][l] - o->bound_center[0], r1 = oc[1][l] - o->bound_center[1];
+        double r2 = oc[2][l] - o->bound_center[2];
+        ball[l] = sqrt(r0 * r0 + r1 * r1 + r2 * r2) - o->bound_radius; /* object units, < 0 inside */
+    }
+    for (int k = 0; k < 4; k++) {
+        const double *b = o->slice_basis[k];
+        for (int l = 0; l < UB_LANES; l++)
+            q[k][l] = (float)(o->slice_origin[k] + b[0] * oc[0][l] + b[1] * oc[1][l] + b[2] * oc[2][l]);
+    }
+    /* The estimate only near the ball: far outside, float32 orbits overflow (kernel.h's
+     * ub_estimate), and the ball's own distance is the better bound there anyway. */
+    int near = 0;
+    if (o->exact)
+        for (int l = 0; l < UB_LANES; l++)
+            if (((open >> l) & 1) && ball[l] <= o->bound_radius)
+                near |= 1 << l;
+    float dist[UB_LANES], iters[UB_LANES], e0[UB_LANES], e1[UB_LANES];
+    if (near) {
+        vf dv, iv;
+        de(dp, m_from_bits(near), v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &dv, &iv);
+        v_store(dist, dv);
+        v_store(iters, iv);
+    }
+    v_store(e0, dp->eps0);
+    v_store(e1, dp->eps1);
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((open >> l) & 1))
+            continue;
+        double bound = ball[l] * o->sigma_min;
+        if ((near >> l) & 1) {
+            iterations[l] += (uint64_t)iters[l];
+            double d = dist[l];
+            /* As the march steps (march.h); a non-finite estimate bounds nothing. */
+            if (d > 0.0 && d < INFINITY)
+                bound = fmax(bound, fmin(d * o->sigma_min * o->step_factor, o->max_step));
+        }
+        bound -= (double)e0[l] + (double)e1[l] * (t[l] + fmax(bound, 0.0));
+        clear[l] = fmin(clear[l], bound);
+    }
+}
+
+/* March the cones of bc's first n lanes; start[l]: where every ray of block l may start. */
+static void march_cones(const ub_scene *sc, const ub_de_params *dps, const block_cones *bc, int n,
+                        double start[UB_LANES], uint64_t iterations[UB_LANES])
+{
+    double t[UB_LANES];
+    for (int l = 0; l < UB_LANES; l++) {
+        t[l] = 0.0;
+        iterations[l] = 0;
+    }
+    int open = (1 << n) - 1;
+    for (int step = 0; step < UB_CONE_MAX_STEPS && open; step++) {
+        if (cancelled(sc))
+            return;
+        double c[3][UB_LANES], clear[UB_LANES];
+        for (int l = 0; l < UB_LANES; l++) {
+            for (int i = 0; i < 3; i++)
+                c[i][l] = bc->origin[i][l] + t[l] * bc->axis[i][l];
+            clear[l] = HUGE_VAL;
+            if (sc->shading->sea)
+                clear[l] = fabs(c[2][l] - sc->shading->sea_height) * (1.0 - 1e-6);
+        }
+        for (int k = 0; k < sc->object_count; k++)
+            object_clearance(&sc->objects[k], &dps[k], open, c, t, clear, iterations);
+        for (int l = 0; l < n; l++) {
+            if (!((open >> l) & 1))
+                continue;
+            double gain = (clear[l] - (bc->spread0[l] + bc->spread1[l] * t[l])) / bc->speed[l];
+            /* Once the cone nearly fills the sphere, further steps gain little: stop. */
+            if (!(gain > 0.125 * clear[l]) || !(t[l] + gain < HUGE_VAL) || t[l] >= bc->beyond[l]) {
+                open &= ~(1 << l);
+                continue;
+            }
+            t[l] += gain;
+        }
+    }
+    for (int l = 0; l < n; l++)
+        start[l] = t[l];
+}
+
+/* Computes and publishes the cones of the blocks idx[0 .. n). */
+static void cone_batch(const ub_scene *sc, const ub_de_params *dps, const int *idx, int n, ub_counters *cnt)
+{
+    ub_cone_cache *cc = sc->cones;
+    block_cones bc;
+    double centre[UB_MAX_OBJECTS][3], radius[UB_MAX_OBJECTS];
+    for (int k = 0; k < sc->object_count; k++) {
+        radius[k] = -1.0;
+        if (sc->objects[k].bound_radius >= 0.0)
+            world_ball(&sc->objects[k], centre[k], &radius[k]);
+    }
+    for (int l = 0; l < UB_LANES; l++) {
+        int i = idx[l < n ? l : n - 1];
+        block_cone(sc, centre, radius, cc->bx0 + i % cc->nbx, cc->by0 + i / cc->nbx, l, &bc);
+    }
+    double start[UB_LANES];
+    uint64_t iterations[UB_LANES];
+    march_cones(sc, dps, &bc, n, start, iterations);
+    if (cancelled(sc))
+        return;
+    for (int l = 0; l < n; l++) {
+        /* Another thread may be writing the same block: it writes the same bits. The one that
+         * publishes first counts its iterations, so the render's count is the same too. */
+        __atomic_store(&cc->start[idx[l]], &start[l], __ATOMIC_RELAXED);
+        if (__atomic_exchange_n(&cc->ready[idx[l]], 1, __ATOMIC_ACQ_REL) == 0)
+            cnt->iterations += iterations[l];
+    }
+}
+
+static inline int cone_index(const ub_cone_cache *cc, int px, int py)
+{
+    return (py / UB_CONE_BLOCK - cc->by0) * cc->nbx + (px / UB_CONE_BLOCK - cc->bx0);
+}
+
+/* Computes the cones of the blocks under the hit-buffer tile [tx0, tx1) x [ty0, ty1) that no
+ * thread has computed yet, UB_LANES at a time. */
+static void cone_fill(const ub_scene *sc, const ub_de_params *dps, int tx0, int ty0, int tx1, int ty1,
+                      ub_counters *cnt)
+{
+    const ub_hit_buffer *hb = sc->hits;
+    const ub_cone_cache *cc = sc->cones;
+    int pending[UB_LANES], n = 0, last_row = -1;
+    for (int y = ty0; y < ty1; y++) {
+        int py = hb->y0 + hb->step * y;
+        if (py / UB_CONE_BLOCK == last_row)
+            continue;
+        last_row = py / UB_CONE_BLOCK;
+        int last_col = -1;
+        for (int x = tx0; x < tx1; x++) {
+            int px = hb->x0 + hb->step * x;
+            if (px / UB_CONE_BLOCK == last_col)
+                continue;
+            last_col = px / UB_CONE_BLOCK;
+            int i = cone_index(cc, px, py);
+            if (__atomic_load_n(&cc->ready[i], __ATOMIC_ACQUIRE))
+                continue;
+            pending[n++] = i;
+            if (n == UB_LANES) {
+                cone_batch(sc, dps, pending, n, cnt);
+                n = 0;
+            }
+        }
+    }
+    if (n)
+        cone_batch(sc, dps, pending, n, cnt);
+}
+
+/* Raise the t_min of the packet's camera rays (image pixels (px + step l, py)) to their block's
+ * certified start. */
+static void cone_start_rays(const ub_scene *sc, int px, int py, int step, int n, ub_packet_rays *pr)
+{
+    const ub_cone_cache *cc = sc->cones;
+    for (int l = 0; l < UB_LANES; l++) {
+        double start;
+        __atomic_load(&cc->start[cone_index(cc, px + step * (l < n ? l : n - 1), py)], &start, __ATOMIC_RELAXED);
+        pr->t_min[l] = fmax(pr->t_min[l], start);
+    }
+}
