@@ -119,16 +119,21 @@ def test_rays_out_of_max_steps_are_counted_marked_and_warned(run_bpy):
     camera rays that ran out (LAST_STATS['out_of_steps']), the Max Steps pass in the EXR marks exactly
     those pixels (1, else 0), both equal the rays whose float64 reference march is still going after 8
     steps (pixel for pixel), and Blender's report shows the warning (more than MAX_STEPS_SHARE, 0.01 %,
-    of the camera rays). The View Layer's Unbound pass toggle is named Max Steps, and the Render
-    Layers node shows a Max Steps socket only while it is on."""
+    of the camera rays). The camera rays start where their 8x8 block's shared cone stopped (issue 21),
+    so they need fewer steps than the reference march from the clip plane: every ray that runs out
+    must also run out there, and most of those do (the cone saves the first few steps only; the
+    exact equality from the clip plane is tests/native/test_march_limits.py's, with shared_steps=0).
+    The View Layer's Unbound pass toggle is named Max Steps, and the Render Layers node shows a Max
+    Steps socket only while it is on."""
     r = run_bpy("engine.rays_out_of_max_steps", args=dict(max_steps=8))
     import numpy as np
     marked = np.array(r["marked"])
     assert set(np.unique(marked)) <= {0.0, 1.0}
     expected = float64_out_of_steps(r, 8)
     stats = r["stats"]
-    assert stats["out_of_steps"] == int(marked.sum()) == int(expected.sum()) > 100
-    assert np.array_equal(marked == 1.0, expected)
+    assert stats["out_of_steps"] == int(marked.sum()) > 100
+    assert not np.any((marked == 1.0) & ~expected), "rays ran out that the march from the clip plane finishes"
+    assert marked.sum() >= 0.5 * expected.sum(), (marked.sum(), expected.sum())
     assert stats["camera_rays"] == 80 * 60
     warnings = [line for line in r["_output"].splitlines() if "ran out of Max Steps" in line]
     assert warnings == ["Warning: Unbound: %d of 4800 camera rays (%.2g%%) ran out of Max Steps before they hit or "
