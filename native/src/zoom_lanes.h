@@ -70,24 +70,28 @@ typedef struct {
     int shared;            /* >= 0: every active lane with a reference is at this offset */
 } zoom_vector;
 
+/* The byte offset the lanes `bits` of `offsets` all hold, or -1 when there is none or they differ. */
+static inline __attribute__((always_inline)) int shared_offset(vd offsets, int bits)
+{
+    double offset[VD_LANES];
+    vd_store(offset, offsets);
+    int shared = -1;
+    for (int l = 0; l < VD_LANES; l++) {
+        if (!((bits >> l) & 1))
+            continue;
+        if (shared < 0)
+            shared = (int)offset[l];
+        else if ((int)offset[l] != shared)
+            return -1;
+    }
+    return shared;
+}
+
 /* Whether the active lanes that follow a reference share one entry (then `shared` is its offset;
  * -1 when there is none, or they differ). */
 static inline __attribute__((always_inline)) void zoom_share(zoom_vector *v)
 {
-    double offset[VD_LANES];
-    vd_store(offset, v->offset);
-    const int following = vdm_bits(vdm_andnot(v->direct, v->active));
-    v->shared = -1;
-    for (int l = 0; l < VD_LANES; l++) {
-        if (!((following >> l) & 1))
-            continue;
-        if (v->shared < 0) {
-            v->shared = (int)offset[l];
-        } else if ((int)offset[l] != v->shared) {
-            v->shared = -1;
-            return;
-        }
-    }
+    v->shared = shared_offset(v->offset, vdm_bits(vdm_andnot(v->direct, v->active)));
 }
 
 static inline __attribute__((always_inline)) vd zoom_norm2(const vd x[4])
@@ -294,19 +298,9 @@ typedef struct {
 static inline __attribute__((always_inline)) skip_entry skip_entry_of(const ub_zoom *zm, vdm lanes, vd at)
 {
     skip_entry e = {(const char *)zm->skip, NULL, lanes, vd_sub(at, vd_set1((double)offsetof(ub_zoom, skip)))};
-    double offsets[VD_LANES];
-    vd_store(offsets, e.at);
-    const int bits = vdm_bits(lanes);
-    int shared = -1;
-    for (int l = 0; l < VD_LANES; l++) {
-        if (!((bits >> l) & 1))
-            continue;
-        if (shared < 0)
-            shared = (int)offsets[l];
-        else if ((int)offsets[l] != shared)
-            return e;
-    }
-    e.entry = e.base + shared;
+    const int shared = shared_offset(e.at, vdm_bits(lanes));
+    if (shared >= 0)
+        e.entry = e.base + shared;
     return e;
 }
 
