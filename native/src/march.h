@@ -19,13 +19,6 @@ typedef struct {
     float s_max[UB_LANES];      /* distance marched from entry before giving up */
 } ub_object_rays;
 
-/* What object_rays reads of an object, as locals: the vectoriser then loads each constant once. */
-typedef struct {
-    double world_to_object[3][4];
-    double center[3], radius;
-    double slice_origin[4], slice_basis[4][3];
-} ub_clip_constants;
-
 /* Clip each lane's ray against the object's bounding ball; returns the lanes that touch it. The
  * same operations in the same order for every lane, in double vectors where the kernel has them
  * (issue 21: the lane-by-lane loop was 8.6 % of the peer render), else lane by lane: only + - * / sqrt
