@@ -61,132 +61,186 @@ int ub_cpu_count(void)
 
 static void cone_cache_free(ub_cone_cache *c);
 
+/* A thread's counters, alone on their cache lines: the kernels bump them for every pixel, and two
+ * threads writing one line would pass it back and forth between their cores (false sharing). 128
+ * bytes apart, so not even the adjacent-line prefetcher pairs them, whatever calloc's alignment. */
+typedef union {
+    ub_counters counters;
+    char line[128];
+} ub_thread_counters;
+
+/* The render's threads, started once per render (issue 21: not once per phase) and handed one job
+ * after another: a phase of a sample, cut into tiles. */
 typedef struct {
     const ub_scene *scene;
     ub_tile_kernel kernel;
-    int phase, sample;
-    int width, height;        /* region tiled: the hit buffer (phase 0) or the film (phase 1) */
-    int tile, tiles_x, tile_count;
-    int next_tile;            /* atomic: next tile to hand out */
-    int tiles_done;           /* atomic */
-    int workers_running;      /* guarded by lock */
+    ub_thread_counters *per_thread;
     ub_mutex lock;
-    ub_cond finished;  /* signalled when a worker exits */
-    ub_counters *per_thread;
-} ub_job;
+    ub_cond wake;     /* broadcast: a new job, or the render is over */
+    ub_cond finished; /* signalled when a worker is done with the job */
+    int job_number;   /* guarded by lock: the current job's; every worker runs every job once */
+    int over;         /* guarded by lock: no more jobs, workers exit */
+    int busy;         /* guarded by lock: workers not yet done with the current job */
+    /* The current job, written by the calling thread while no worker is busy. */
+    int phase, sample;
+    int width, height; /* region tiled: the hit buffer (phase 0) or the film (phase 1) */
+    int tile, tiles_x, tile_count;
+    int next_tile;  /* atomic: next tile to hand out */
+    int tiles_done; /* atomic */
+} ub_pool;
 
 typedef struct {
-    ub_job *job;
+    ub_pool *pool;
     int index;
     ub_thread thread;
-    int started;
 } ub_worker;
+
+/* How long an idle worker sleeps before it looks again (a wake-up is broadcast; this is only a
+ * bound should one be missed). */
+#define UB_IDLE_WAIT_NS ((int64_t)100000000)
+
+static void run_tile(ub_pool *pool, int t, int y0, int y1, ub_counters *cnt)
+{
+    int tx = (t % pool->tiles_x) * pool->tile;
+    int tx1 = tx + pool->tile < pool->width ? tx + pool->tile : pool->width;
+    pool->kernel(pool->scene, pool->phase, pool->sample, tx, y0, tx1, y1, cnt);
+}
+
+static void tile_rows(const ub_pool *pool, int t, int *ty, int *ty1)
+{
+    *ty = (t / pool->tiles_x) * pool->tile;
+    *ty1 = *ty + pool->tile < pool->height ? *ty + pool->tile : pool->height;
+}
+
+/* A worker's share of the current job: tiles until none is left or the render is cancelled. */
+static void work_on_job(ub_pool *pool, ub_counters *cnt)
+{
+    while (!__atomic_load_n(pool->scene->cancel, __ATOMIC_RELAXED)) {
+        int t = __atomic_fetch_add(&pool->next_tile, 1, __ATOMIC_RELAXED);
+        if (t >= pool->tile_count)
+            break;
+        int ty, ty1;
+        tile_rows(pool, t, &ty, &ty1);
+        run_tile(pool, t, ty, ty1, cnt);
+        __atomic_fetch_add(&pool->tiles_done, 1, __ATOMIC_RELEASE);
+    }
+}
 
 UB_THREAD_ENTRY(worker_main, arg)
 {
     ub_worker *w = arg;
-    ub_job *job = w->job;
-    /* Restored on exit: with no thread available this runs on the caller's (Blender's) thread. */
+    ub_pool *pool = w->pool;
     uint64_t fp = ub_fp_enter();
+    int last_job = 0;
+    ub_mutex_lock(&pool->lock);
     for (;;) {
-        if (__atomic_load_n(job->scene->cancel, __ATOMIC_RELAXED))
+        while (!pool->over && pool->job_number == last_job)
+            ub_cond_wait_ns(&pool->wake, &pool->lock, UB_IDLE_WAIT_NS);
+        if (pool->over)
             break;
-        int t = __atomic_fetch_add(&job->next_tile, 1, __ATOMIC_RELAXED);
-        if (t >= job->tile_count)
-            break;
-        int tx = (t % job->tiles_x) * job->tile, ty = (t / job->tiles_x) * job->tile;
-        int tx1 = tx + job->tile < job->width ? tx + job->tile : job->width;
-        int ty1 = ty + job->tile < job->height ? ty + job->tile : job->height;
-        job->kernel(job->scene, job->phase, job->sample, tx, ty, tx1, ty1, &job->per_thread[w->index]);
-        __atomic_fetch_add(&job->tiles_done, 1, __ATOMIC_RELEASE);
+        last_job = pool->job_number;
+        ub_mutex_unlock(&pool->lock);
+        work_on_job(pool, &pool->per_thread[w->index].counters);
+        ub_mutex_lock(&pool->lock);
+        pool->busy--;
+        ub_cond_signal(&pool->finished);
     }
+    ub_mutex_unlock(&pool->lock);
     ub_fp_leave(fp);
-    ub_mutex_lock(&job->lock);
-    job->workers_running--;
-    ub_cond_signal(&job->finished);
-    ub_mutex_unlock(&job->lock);
     UB_THREAD_RETURN;
 }
 
-/* Runs one phase of one sample over its region on `threads` workers while the calling thread
- * polls progress (reported as done_before + fraction of this job, over `total` jobs) and cancel.
- * Returns the number of threads that ran. */
-static int run_job(ub_job *job, const ub_render_options *opt, int threads, ub_worker *workers, int job_index,
-                   int job_total)
+/* Starts up to `threads` workers; returns how many started (0: the calling thread renders). */
+static int pool_start(ub_pool *pool, ub_worker *workers, int threads)
 {
-    job->tiles_x = (job->width + job->tile - 1) / job->tile;
-    int tiles_y = (job->height + job->tile - 1) / job->tile;
-    job->tile_count = job->tiles_x * tiles_y;
-    job->next_tile = 0;
-    job->tiles_done = 0;
-    if (threads > job->tile_count)
-        threads = job->tile_count;
-    if (threads < 1)
-        threads = 1;
-    ub_mutex_init(&job->lock);
-    ub_cond_init(&job->finished);
-    job->workers_running = threads;
+    ub_mutex_init(&pool->lock);
+    ub_cond_init(&pool->wake);
+    ub_cond_init(&pool->finished);
     int started = 0;
     for (int i = 0; i < threads; i++) {
-        workers[i].job = job;
-        workers[i].index = i;
-        workers[i].started = 0;
-        if (ub_thread_start(&workers[i].thread, worker_main, &workers[i])) {
-            workers[i].started = 1;
+        workers[started].pool = pool;
+        workers[started].index = started;
+        if (ub_thread_start(&workers[started].thread, worker_main, &workers[started]))
             started++;
-        } else {
-            ub_mutex_lock(&job->lock);
-            job->workers_running--;
-            ub_mutex_unlock(&job->lock);
-        }
     }
-    if (!started) {
-        /* No thread could be created (a pids or RLIMIT_NPROC limit, no address space for a stack):
-         * render on the calling thread, one row of a tile at a time, polling between them, so
-         * progress and cancel are seen as with workers (issue 16, defect 5). Pixels do not depend
-         * on how the film is cut, so the image is the same. */
-        uint64_t fp = ub_fp_enter();
-        double last_poll = ub_monotonic_seconds();
-        for (int t = 0; t < job->tile_count && !__atomic_load_n(job->scene->cancel, __ATOMIC_RELAXED); t++) {
-            int tx = (t % job->tiles_x) * job->tile, ty = (t / job->tiles_x) * job->tile;
-            int tx1 = tx + job->tile < job->width ? tx + job->tile : job->width;
-            int ty1 = ty + job->tile < job->height ? ty + job->tile : job->height;
-            for (int y = ty; y < ty1 && !__atomic_load_n(job->scene->cancel, __ATOMIC_RELAXED); y++) {
-                job->kernel(job->scene, job->phase, job->sample, tx, y, tx1, y + 1, &job->per_thread[0]);
-                double now = ub_monotonic_seconds();
-                if (opt->poll && now - last_poll >= 1e-9 * (double)opt->poll_interval_ns) {
-                    last_poll = now;
-                    double frac = (t + (double)(y + 1 - ty) / (ty1 - ty)) / job->tile_count;
-                    ub_fp_leave(fp); /* the callback runs Python in the caller's own FP mode */
-                    if (opt->poll(opt->poll_data, (job_index + frac) / job_total))
-                        __atomic_store_n(job->scene->cancel, 1, __ATOMIC_RELAXED);
-                    fp = ub_fp_enter();
-                }
+    return started;
+}
+
+static void pool_stop(ub_pool *pool, ub_worker *workers, int started)
+{
+    ub_mutex_lock(&pool->lock);
+    pool->over = 1;
+    ub_cond_broadcast(&pool->wake);
+    ub_mutex_unlock(&pool->lock);
+    for (int i = 0; i < started; i++)
+        ub_thread_join(workers[i].thread);
+    ub_cond_destroy(&pool->finished);
+    ub_cond_destroy(&pool->wake);
+    ub_mutex_destroy(&pool->lock);
+}
+
+static int report_progress(const ub_render_options *opt, double fraction, volatile int *cancel)
+{
+    if (opt->poll && opt->poll(opt->poll_data, fraction)) {
+        __atomic_store_n(cancel, 1, __ATOMIC_RELAXED);
+        return 1;
+    }
+    return 0;
+}
+
+/* No thread could be created (a pids or RLIMIT_NPROC limit, no address space for a stack): the
+ * calling thread renders the job, one row of a tile at a time, polling between them, so progress
+ * and cancel are seen as with workers (issue 16, defect 5). Pixels do not depend on how the film
+ * is cut, so the image is the same. */
+static void run_job_on_caller(ub_pool *pool, const ub_render_options *opt, int job_index, int job_total)
+{
+    volatile int *cancel = pool->scene->cancel;
+    uint64_t fp = ub_fp_enter();
+    double last_poll = ub_monotonic_seconds();
+    for (int t = 0; t < pool->tile_count && !__atomic_load_n(cancel, __ATOMIC_RELAXED); t++) {
+        int ty, ty1;
+        tile_rows(pool, t, &ty, &ty1);
+        for (int y = ty; y < ty1 && !__atomic_load_n(cancel, __ATOMIC_RELAXED); y++) {
+            run_tile(pool, t, y, y + 1, &pool->per_thread[0].counters);
+            double now = ub_monotonic_seconds();
+            if (opt->poll && now - last_poll >= 1e-9 * (double)opt->poll_interval_ns) {
+                last_poll = now;
+                double frac = (t + (double)(y + 1 - ty) / (ty1 - ty)) / pool->tile_count;
+                ub_fp_leave(fp); /* the callback runs Python in the caller's own FP mode */
+                report_progress(opt, (job_index + frac) / job_total, cancel);
+                fp = ub_fp_enter();
             }
-            job->tiles_done = t + 1;
-        }
-        ub_fp_leave(fp);
-        job->workers_running = 0;
-    }
-    /* Poll: report progress and let the caller cancel, until the workers are done. */
-    ub_mutex_lock(&job->lock);
-    while (job->workers_running > 0) {
-        ub_cond_wait_ns(&job->finished, &job->lock, opt->poll_interval_ns);
-        if (job->workers_running > 0 && opt->poll) {
-            ub_mutex_unlock(&job->lock);
-            double frac = (double)__atomic_load_n(&job->tiles_done, __ATOMIC_ACQUIRE) / job->tile_count;
-            if (opt->poll(opt->poll_data, (job_index + frac) / job_total))
-                __atomic_store_n(job->scene->cancel, 1, __ATOMIC_RELAXED);
-            ub_mutex_lock(&job->lock);
         }
     }
-    ub_mutex_unlock(&job->lock);
-    for (int i = 0; i < threads; i++)
-        if (workers[i].started)
-            ub_thread_join(workers[i].thread);
-    ub_cond_destroy(&job->finished);
-    ub_mutex_destroy(&job->lock);
-    return started ? started : 1;
+    ub_fp_leave(fp);
+}
+
+/* Runs one phase of one sample over its region on the pool's `started` workers while the calling
+ * thread polls progress (reported as job_index + fraction of this job, over job_total) and cancel. */
+static void run_job(ub_pool *pool, int started, const ub_render_options *opt, int job_index, int job_total)
+{
+    pool->tiles_x = (pool->width + pool->tile - 1) / pool->tile;
+    pool->tile_count = pool->tiles_x * ((pool->height + pool->tile - 1) / pool->tile);
+    pool->next_tile = 0;
+    pool->tiles_done = 0;
+    if (!started) {
+        run_job_on_caller(pool, opt, job_index, job_total);
+        return;
+    }
+    ub_mutex_lock(&pool->lock);
+    pool->busy = started;
+    pool->job_number++;
+    ub_cond_broadcast(&pool->wake);
+    while (pool->busy > 0) {
+        ub_cond_wait_ns(&pool->finished, &pool->lock, opt->poll_interval_ns);
+        if (pool->busy > 0 && opt->poll) {
+            ub_mutex_unlock(&pool->lock);
+            double frac = (double)__atomic_load_n(&pool->tiles_done, __ATOMIC_ACQUIRE) / pool->tile_count;
+            report_progress(opt, (job_index + frac) / job_total, pool->scene->cancel);
+            ub_mutex_lock(&pool->lock);
+        }
+    }
+    ub_mutex_unlock(&pool->lock);
 }
 
 /* The hit buffer is kept between renders (one, at most UB_KEEP_HIT_BYTES): a fresh one of 26 MB at
@@ -290,7 +344,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     int cones_ok = cone_cache_alloc(scene_in, &hb, opt->shared_steps, &cones);
     scene.cones = cones.start ? &cones : NULL;
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
-    ub_counters *per_thread = calloc((size_t)threads, sizeof(ub_counters));
+    ub_thread_counters *per_thread = calloc((size_t)threads, sizeof(ub_thread_counters));
     ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
     if (!per_thread || !workers || !hb.hits || !cones_ok) {
         free(per_thread);
@@ -300,34 +354,36 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         return "out of memory (the image is too large for this machine)";
     }
     double t0 = ub_monotonic_seconds();
-    int samples = scene.shading->samples, ran = 1;
+    /* No more workers than the hit buffer has tiles (the film has no more than it). */
+    int tiles = ((hb.w + opt->tile_size - 1) / opt->tile_size) * ((hb.h + opt->tile_size - 1) / opt->tile_size);
+    ub_pool pool;
+    memset(&pool, 0, sizeof pool);
+    pool.scene = &scene;
+    pool.kernel = ub_tile_kernel_of(kernel);
+    pool.per_thread = per_thread;
+    pool.tile = opt->tile_size;
+    int started = pool_start(&pool, workers, threads < tiles ? threads : (tiles > 0 ? tiles : 1));
     int first = opt->sample_count > 0 ? opt->first_sample : 0;
-    int count = opt->sample_count > 0 ? opt->sample_count : samples;
+    int count = opt->sample_count > 0 ? opt->sample_count : scene.shading->samples;
     for (int s = first; s < first + count && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); s++) {
         for (int phase = 0; phase < 2 && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); phase++) {
-            ub_job job;
-            memset(&job, 0, sizeof job);
-            job.scene = &scene;
-            job.kernel = ub_tile_kernel_of(kernel);
-            job.phase = phase;
-            job.sample = s;
-            job.width = phase == 0 ? hb.w : film->w;
-            job.height = phase == 0 ? hb.h : film->h;
-            job.tile = opt->tile_size;
-            job.per_thread = per_thread;
-            int r = run_job(&job, opt, threads, workers, 2 * (s - first) + phase, 2 * count);
-            if (r > ran)
-                ran = r;
+            pool.phase = phase;
+            pool.sample = s;
+            pool.width = phase == 0 ? hb.w : film->w;
+            pool.height = phase == 0 ? hb.h : film->h;
+            run_job(&pool, started, opt, 2 * (s - first) + phase, 2 * count);
         }
     }
+    pool_stop(&pool, workers, started);
     stats->seconds = ub_monotonic_seconds() - t0;
     for (int i = 0; i < threads; i++) {
-        stats->counters.rays += per_thread[i].rays;
-        stats->counters.steps += per_thread[i].steps;
-        stats->counters.iterations += per_thread[i].iterations;
-        stats->counters.out_of_steps += per_thread[i].out_of_steps;
+        const ub_counters *c = &per_thread[i].counters;
+        stats->counters.rays += c->rays;
+        stats->counters.steps += c->steps;
+        stats->counters.iterations += c->iterations;
+        stats->counters.out_of_steps += c->out_of_steps;
     }
-    stats->threads = ran;
+    stats->threads = started ? started : 1;
     stats->isa = ub_isa_names[kernel];
     stats->cancelled = __atomic_load_n(scene.cancel, __ATOMIC_RELAXED) != 0;
     free(per_thread);
