@@ -1,0 +1,99 @@
+"""Fraction of the FMA peak and thread scaling on the peer scene (issue 21).
+
+The peak is measured, not taken from a data sheet: `fma_peak.c` (built here with the system C
+compiler) runs twelve independent FMA chains per vector width on one core, best of three. The
+render's FLOP are counted as issue 21 counts them: 24 per quaternion iteration of the estimate
+(z <- z^2 + mu and |z|^2, with FMA: 1 + 8 + 3 x 2 for the square, 7 for the norm, 2 for the running
+derivative), times `stats["iterations"]` (every iteration of f in the march, its cones and its
+bisection; the normals' Jacobian iterations, which cost more, are not counted, so the figure is a
+lower bound). GFLOP/s per core = FLOP / process CPU seconds of the whole call.
+
+Each kernel (avx512, avx2) renders the peer scene (bench_core.py's camera and object, 1280x1024,
+passes combined, alpha, depth) on 1 and 2 threads, interleaved, after a warm-up; medians (min-max).
+Thread scaling: wall 1 thread / wall 2 threads, and CPU 2 threads / CPU 1 thread (1.00: no CPU
+spent on threading); the wall figure needs a quiet machine.
+
+    python bench/bench_flops.py [--repeats 5] [--res 1280x1024]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import bench_core  # noqa: E402  (puts the built module on the path)
+import unbound_core as uc  # noqa: E402
+
+FLOP_PER_ITERATION = 24
+WIDTHS = {"avx512": "1", "avx2": "0"}
+
+
+def measured_peaks(kernels):
+    """GFLOP/s of one core per kernel's vector width, from fma_peak.c; {} without a C compiler."""
+    cc = os.environ.get("CC", "cc")
+    with tempfile.TemporaryDirectory() as tmp:
+        exe = os.path.join(tmp, "fma_peak")
+        try:
+            subprocess.run([cc, "-O2", str(HERE / "fma_peak.c"), "-o", exe], check=True, capture_output=True)
+        except (OSError, subprocess.CalledProcessError) as e:
+            print("no FMA peak: cannot build fma_peak.c (%s)" % e)
+            return {}
+        peaks = {}
+        for kernel in kernels:
+            out = subprocess.run([exe, WIDTHS[kernel]], check=True, capture_output=True, text=True).stdout
+            peaks[kernel] = max(float(line.split()[1]) for line in out.split("\n") if line.strip())
+        return peaks
+
+
+def render(width, height, threads, simd):
+    cam = bench_core.camera(width, height)
+    import numpy as np
+    import time
+    passes = {n: np.zeros((height, width, uc.PASS_CHANNELS[n]), np.float32) for n in ("combined", "alpha", "depth")}
+    c0, t0 = time.process_time(), time.perf_counter()
+    stats = uc.render(cam, [bench_core.OBJECT], passes, threads=threads, simd=simd)
+    return time.process_time() - c0, time.perf_counter() - t0, stats["iterations"]
+
+
+def med(values):
+    return "%.4g (%.4g-%.4g)" % (statistics.median(values), min(values), max(values))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--res", default="1280x1024")
+    args = ap.parse_args()
+    width, height = map(int, args.res.split("x"))
+    info = uc.cpu_info()
+    kernels = [k for k in ("avx512", "avx2") if info[{"avx512": "avx512", "avx2": "avx2_fma"}[k]]]
+    peaks = measured_peaks(kernels)
+    runs = {(k, t): [] for k in kernels for t in (1, 2)}
+    for k in kernels:  # warm-up
+        render(width, height, 2, k)
+    for _ in range(args.repeats):
+        for key in runs:
+            runs[key].append(render(width, height, key[1], key[0]))
+    print("peer scene %dx%d, %d repeats, load average %s" % (width, height, args.repeats,
+                                                            " ".join("%.2f" % x for x in os.getloadavg())))
+    for k in kernels:
+        one, two = runs[(k, 1)], runs[(k, 2)]
+        gflops = [FLOP_PER_ITERATION * it / cpu * 1e-9 for cpu, _, it in one + two]
+        print("%s: CPU s 1 thread %s, 2 threads %s; wall s 1 thread %s, 2 threads %s" % (
+            k, med([r[0] for r in one]), med([r[0] for r in two]), med([r[1] for r in one]), med([r[1] for r in two])))
+        print("  %.1f M iterations per render; %s GFLOP/s per core" % (one[0][2] * 1e-6, med(gflops)))
+        if k in peaks:
+            print("  measured FMA peak %.1f GFLOP/s per core: %s %% of it" % (
+                peaks[k], med([100.0 * g / peaks[k] for g in gflops])))
+        print("  thread scaling 1 -> 2: wall %s x, CPU 2 threads / 1 thread %s" % (
+            med([a[1] / b[1] for a, b in zip(one, two)]), med([b[0] / a[0] for a, b in zip(one, two)])))
+
+
+if __name__ == "__main__":
+    main()
