@@ -11,9 +11,11 @@ lower bound). GFLOP/s per core = FLOP / process CPU seconds of the whole call.
 Each kernel (avx512, avx2) renders the peer scene (bench_core.py's camera and object, 1280x1024,
 passes combined, alpha, depth) on 1 and 2 threads, interleaved, after a warm-up; medians (min-max).
 Thread scaling: wall 1 thread / wall 2 threads, and CPU 2 threads / CPU 1 thread (1.00: no CPU
-spent on threading); the wall figure needs a quiet machine.
+spent on threading); the wall figure needs a quiet machine. Beside it, what the machine itself does
+to two busy cores (clock, shared caches, the host): the same 1-thread render in two processes at
+once, their CPU per render against one process alone (`--pair`).
 
-    python bench/bench_flops.py [--repeats 5] [--res 1280x1024]
+    python bench/bench_flops.py [--repeats 5] [--res 1280x1024] [--pair]
 """
 from __future__ import annotations
 
@@ -61,6 +63,30 @@ def render(width, height, threads, simd):
     return time.process_time() - c0, time.perf_counter() - t0, stats["iterations"]
 
 
+PAIR_CHILD = r"""
+import sys, time
+sys.path.insert(0, sys.argv[1])
+import bench_flops
+bench_flops.render(1280, 1024, 1, sys.argv[2])
+cpu = [bench_flops.render(1280, 1024, 1, sys.argv[2])[0] for _ in range(int(sys.argv[3]))]
+print(" ".join("%.5f" % c for c in cpu))
+"""
+
+
+def pair(kernel, renders=8):
+    """CPU seconds per 1-thread render: one process alone, then two at once (each its own core)."""
+    def start():
+        return subprocess.Popen([sys.executable, "-c", PAIR_CHILD, str(HERE), kernel, str(renders)],
+                                stdout=subprocess.PIPE, text=True)
+
+    def cpu_of(procs):
+        return [float(x) for p in procs for x in p.communicate()[0].split()]
+
+    alone = cpu_of([start()])
+    together = cpu_of([start(), start()])
+    return alone, together
+
+
 def med(values):
     return "%.4g (%.4g-%.4g)" % (statistics.median(values), min(values), max(values))
 
@@ -69,6 +95,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--res", default="1280x1024")
+    ap.add_argument("--pair", action="store_true", help="also two 1-thread processes at once")
     args = ap.parse_args()
     width, height = map(int, args.res.split("x"))
     info = uc.cpu_info()
@@ -93,6 +120,10 @@ def main():
                 peaks[k], med([100.0 * g / peaks[k] for g in gflops])))
         print("  thread scaling 1 -> 2: wall %s x, CPU 2 threads / 1 thread %s" % (
             med([a[1] / b[1] for a, b in zip(one, two)]), med([b[0] / a[0] for a, b in zip(one, two)])))
+        if args.pair:
+            alone, together = pair(k)
+            print("  1-thread render, CPU s: one process alone %s, two processes at once %s (ratio %.3f)" % (
+                med(alone), med(together), statistics.median(together) / statistics.median(alone)))
 
 
 if __name__ == "__main__":
