@@ -71,15 +71,18 @@ static int pixel_ray(const ub_camera *cam, int px, int py, const sample_point *s
  * the lane loop of ub_camera_ray's arithmetic (camera_projection.h), which the compiler turns into
  * double-precision vector code, so the rays have ub_camera_ray's bits at a fraction of the cost of
  * one call per lane (issue 21: the rays' divides and square roots, lane by lane, took 12 % of a
- * render). Always inlined, so that `orthographic` is a constant and the loop has no branch. */
+ * render). The row's terms are computed once per packet, each lane's from its own absolute px.
+ * Always inlined, so that `orthographic` is a constant and the loop has no branch. */
 static inline __attribute__((always_inline)) void projection_packet(const ub_camera *restrict cam, int orthographic,
                                                                     const double px[UB_LANES], double py,
                                                                     ub_packet_rays *restrict pr)
 {
     const ub_camera c = *cam; /* a local copy: the vectoriser loads its constants once */
+    projection_row row;
+    projection_row_of(&c, py, &row);
     for (int l = 0; l < UB_LANES; l++) {
         double ov[3], dv[3], o[3], d[3];
-        projection_ray_view_kind(&c, orthographic, px[l], py, ov, dv, &pr->t_min[l], &pr->t_max[l]);
+        projection_ray_in_row(&row, orthographic, px[l], ov, dv, &pr->t_min[l], &pr->t_max[l]);
         view_to_world(&c, ov, dv, o, d);
         for (int i = 0; i < 3; i++) {
             pr->origin[i][l] = o[i];
