@@ -116,7 +116,7 @@ static void projection_ray(const ub_camera *cam, double px, double py, double or
 {
     double ov[3], dv[3];
     projection_ray_view(cam, px, py, ov, dv, t_min, t_max);
-    view_to_world(cam, ov, dv, origin, dir);
+    view_to_world(cam->cam_to_world, ov, dv, origin, dir);
 }
 
 /* The elementary functions of the panoramic mappings, one small function each: what reaches
@@ -310,7 +310,7 @@ int ub_camera_ray(const ub_camera *cam, double px, double py, const double lens[
         double ov[3], dv[3];
         projection_ray_view(cam, px, py, ov, dv, t_min, t_max);
         projection_lens(cam, at, ov, dv, t_min, t_max);
-        view_to_world(cam, ov, dv, origin, dir);
+        view_to_world(cam->cam_to_world, ov, dv, origin, dir);
         return 1;
     }
     const double *vp = cam->viewplane;
@@ -330,7 +330,7 @@ int ub_camera_ray(const ub_camera *cam, double px, double py, const double lens[
         for (int i = 0; i < 3; i++)
             d[i] /= len;
         panorama_lens(cam, at, o, d);
-        view_to_world(cam, o, d, origin, dir);
+        view_to_world(cam->cam_to_world, o, d, origin, dir);
     } else {
         for (int r = 0; r < 3; r++) {
             const double *row = cam->cam_to_world[r];

@@ -91,11 +91,12 @@ static inline void projection_ray_view_kind(const ub_camera *cam, int orthograph
     projection_ray_in_row(&row, orthographic, px, ov, dv, t_min, t_max);
 }
 
-static inline void view_to_world(const ub_camera *cam, const double ov[3], const double dv[3], double origin[3],
-                                 double dir[3])
+/* The view-space ray (ov, dv) in world space, by the camera's cam_to_world. */
+static inline void view_to_world(const double cam_to_world[3][4], const double ov[3], const double dv[3],
+                                 double origin[3], double dir[3])
 {
     for (int r = 0; r < 3; r++) {
-        const double *row = cam->cam_to_world[r];
+        const double *row = cam_to_world[r];
         dir[r] = row[0] * dv[0] + row[1] * dv[1] + row[2] * dv[2];
         origin[r] = row[0] * ov[0] + row[1] * ov[1] + row[2] * ov[2] + row[3];
     }

@@ -77,13 +77,16 @@ static inline __attribute__((always_inline)) void projection_packet(const ub_cam
                                                                     const double px[UB_LANES], double py,
                                                                     ub_packet_rays *restrict pr)
 {
-    const ub_camera c = *cam; /* a local copy: the vectoriser loads its constants once */
+    /* Local copies of what the lanes share: nothing the lanes write can alias them, so the
+     * vectoriser loads them once (a copy of the whole camera cost a store-forwarding stall). */
     projection_row row;
-    projection_row_of(&c, py, &row);
+    projection_row_of(cam, py, &row);
+    double cam_to_world[3][4];
+    memcpy(cam_to_world, cam->cam_to_world, sizeof cam_to_world);
     for (int l = 0; l < UB_LANES; l++) {
         double ov[3], dv[3], o[3], d[3];
         projection_ray_in_row(&row, orthographic, px[l], ov, dv, &pr->t_min[l], &pr->t_max[l]);
-        view_to_world(&c, ov, dv, o, d);
+        view_to_world(cam_to_world, ov, dv, o, d);
         for (int i = 0; i < 3; i++) {
             pr->origin[i][l] = o[i];
             pr->dir[i][l] = d[i];
