@@ -43,6 +43,18 @@ static int invert4(const double m[4][4], double out[4][4])
 static void projection_ray(const ub_camera *cam, double px, double py, double origin[3], double dir[3],
                            double *t_min, double *t_max);
 
+/* The inverse projection `inv` on the plane of NDC depth ndc_z as a map of the image point:
+ * inv (2 px / width - 1, 2 py / height - 1, ndc_z, 1), its terms gathered by px, py and neither
+ * (y = -1 is the bottom row). */
+static void clip_plane_map(const double inv[4][4], int width, int height, double ndc_z, ub_clip_plane_map *map)
+{
+    for (int i = 0; i < 4; i++) {
+        map->origin[i] = inv[i][3] + ndc_z * inv[i][2] - inv[i][0] - inv[i][1];
+        map->per_x[i] = 2.0 * inv[i][0] / width;
+        map->per_y[i] = 2.0 * inv[i][1] / height;
+    }
+}
+
 const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
                               const double projection[4][4])
 {
@@ -60,12 +72,15 @@ const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
         cam->position[r] = cam_to_world[r][3];
         cam->forward[r] = -cam->cam_to_world[r][2];
     }
-    if (!invert4(projection, cam->inv_projection))
+    double inv_projection[4][4];
+    if (!invert4(projection, inv_projection))
         return "camera.projection must be invertible";
     for (int i = 0; i < 4; i++)
         for (int j = 0; j < 4; j++)
-            if (!isfinite(cam->inv_projection[i][j]))
+            if (!isfinite(inv_projection[i][j]))
                 return "camera.projection must be invertible";
+    clip_plane_map(inv_projection, cam->width, cam->height, -1.0, &cam->clip_start);
+    clip_plane_map(inv_projection, cam->width, cam->height, 1.0, &cam->clip_end);
     /* A perspective projection's last row is (0, 0, -1, 0); an orthographic one's (0, 0, 0, 1). */
     cam->orthographic = projection[3][2] == 0.0;
     if (!(projection[0][0] != 0.0 && projection[1][1] != 0.0))
@@ -101,7 +116,7 @@ static void projection_ray(const ub_camera *cam, double px, double py, double or
 {
     double ov[3], dv[3];
     projection_ray_view(cam, px, py, ov, dv, t_min, t_max);
-    view_to_world(cam, ov, dv, origin, dir);
+    view_to_world(cam->cam_to_world, ov, dv, origin, dir);
 }
 
 /* The elementary functions of the panoramic mappings, one small function each: what reaches
@@ -295,7 +310,7 @@ int ub_camera_ray(const ub_camera *cam, double px, double py, const double lens[
         double ov[3], dv[3];
         projection_ray_view(cam, px, py, ov, dv, t_min, t_max);
         projection_lens(cam, at, ov, dv, t_min, t_max);
-        view_to_world(cam, ov, dv, origin, dir);
+        view_to_world(cam->cam_to_world, ov, dv, origin, dir);
         return 1;
     }
     const double *vp = cam->viewplane;
@@ -315,7 +330,7 @@ int ub_camera_ray(const ub_camera *cam, double px, double py, const double lens[
         for (int i = 0; i < 3; i++)
             d[i] /= len;
         panorama_lens(cam, at, o, d);
-        view_to_world(cam, o, d, origin, dir);
+        view_to_world(cam->cam_to_world, o, d, origin, dir);
     } else {
         for (int r = 0; r < 3; r++) {
             const double *row = cam->cam_to_world[r];

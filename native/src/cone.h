@@ -95,13 +95,13 @@ static void block_cone(const ub_scene *sc, const double (*ball_centre)[3], const
     const double size = UB_CONE_BLOCK, x0 = size * bx, y0 = size * by;
     double ov[3], dv[3], t0, t1, origin[3], axis[3];
     projection_ray_view_kind(cam, orthographic, x0 + 0.5 * size, y0 + 0.5 * size, ov, dv, &t0, &t1);
-    view_to_world(cam, ov, dv, origin, axis);
+    view_to_world(cam->cam_to_world, ov, dv, origin, axis);
     double spread0 = 0.0, spread1 = 0.0;
     for (int corner = 0; corner < 4; corner++) {
         double o[3], d[3];
         projection_ray_view_kind(cam, orthographic, x0 + size * (corner & 1), y0 + size * (corner >> 1), ov, dv,
                                  &t0, &t1);
-        view_to_world(cam, ov, dv, o, d);
+        view_to_world(cam->cam_to_world, ov, dv, o, d);
         spread0 = fmax(spread0, distance3(o, origin));
         spread1 = fmax(spread1, distance3(d, axis));
     }

@@ -71,16 +71,26 @@ static int pixel_ray(const ub_camera *cam, int px, int py, const sample_point *s
  * the lane loop of ub_camera_ray's arithmetic (camera_projection.h), which the compiler turns into
  * double-precision vector code, so the rays have ub_camera_ray's bits at a fraction of the cost of
  * one call per lane (issue 21: the rays' divides and square roots, lane by lane, took 12 % of a
- * render). Always inlined, so that `orthographic` is a constant and the loop has no branch. */
+ * render). The row's terms are computed once per packet, each lane's from its own absolute px.
+ * with_range 0: the t range is not wanted and left empty, which saves two of the three divides
+ * and one of the two square roots. Always inlined, so that `orthographic` and `with_range` are
+ * constants and the loop has no branch. */
 static inline __attribute__((always_inline)) void projection_packet(const ub_camera *restrict cam, int orthographic,
-                                                                    const double px[UB_LANES], double py,
-                                                                    ub_packet_rays *restrict pr)
+                                                                    int with_range, const double px[UB_LANES],
+                                                                    double py, ub_packet_rays *restrict pr)
 {
-    const ub_camera c = *cam; /* a local copy: the vectoriser loads its constants once */
+    /* Local copies of what the lanes share: nothing the lanes write can alias them, so the
+     * vectoriser loads them once (a copy of the whole camera cost a store-forwarding stall). */
+    projection_row row;
+    projection_row_of(cam, py, &row);
+    double cam_to_world[3][4];
+    memcpy(cam_to_world, cam->cam_to_world, sizeof cam_to_world);
     for (int l = 0; l < UB_LANES; l++) {
-        double ov[3], dv[3], o[3], d[3];
-        projection_ray_view_kind(&c, orthographic, px[l], py, ov, dv, &pr->t_min[l], &pr->t_max[l]);
-        view_to_world(&c, ov, dv, o, d);
+        double ov[3], dv[3], o[3], d[3], t_min, t_max;
+        projection_ray_in_row(&row, orthographic, px[l], ov, dv, &t_min, &t_max);
+        pr->t_min[l] = with_range ? t_min : 0.0; /* unused: the compiler drops its arithmetic */
+        pr->t_max[l] = with_range ? t_max : 0.0;
+        view_to_world(cam_to_world, ov, dv, o, d);
         for (int i = 0; i < 3; i++) {
             pr->origin[i][l] = o[i];
             pr->dir[i][l] = d[i];
@@ -91,18 +101,25 @@ static inline __attribute__((always_inline)) void projection_packet(const ub_cam
 
 /* Camera rays of the n pixels (px + step l, py), l < n; padding lanes repeat the last real
  * pixel (their results are discarded). Returns the lanes whose pixel sees the scene: outside a
- * panoramic camera's lens a lane gets the view axis and an empty t range, and is not traced. */
+ * panoramic camera's lens a lane gets the view axis and an empty t range, and is not traced.
+ * with_range 0 (the shading phase, whose camera rays are not traced: their hits are in the hit
+ * buffer): a projection camera's rays may come with an empty t range. */
 static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, const sample_point *sp,
-                         ub_packet_rays *pr)
+                         int with_range, ub_packet_rays *pr)
 {
     if (cam->panorama == UB_PANORAMA_NONE && !(cam->aperture > 0.0)) {
         double image_x[UB_LANES];
         for (int l = 0; l < UB_LANES; l++)
             image_x[l] = px + step * (l < n ? l : n - 1) + sp->off[0];
-        if (cam->orthographic)
-            projection_packet(cam, 1, image_x, py + sp->off[1], pr);
+        const double image_y = py + sp->off[1];
+        if (cam->orthographic && with_range)
+            projection_packet(cam, 1, 1, image_x, image_y, pr);
+        else if (cam->orthographic)
+            projection_packet(cam, 1, 0, image_x, image_y, pr);
+        else if (with_range)
+            projection_packet(cam, 0, 1, image_x, image_y, pr);
         else
-            projection_packet(cam, 0, image_x, py + sp->off[1], pr);
+            projection_packet(cam, 0, 0, image_x, image_y, pr);
         return UB_ALL_LANES;
     }
     int seen = 0;
@@ -141,7 +158,7 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             ub_packet_rays pr;
             int px = hb->x0 + hb->step * x, py = hb->y0 + hb->step * y;
-            int seen = camera_packet(sc->camera, px, py, hb->step, n, &sp, &pr);
+            int seen = camera_packet(sc->camera, px, py, hb->step, n, &sp, 1, &pr);
             if (sc->cones) /* shared first steps: each ray starts where its block's cone is empty */
                 cone_start_rays(sc, px, py, hb->step, n, &pr);
             ub_trace_result tr;
@@ -985,7 +1002,7 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
             ub_trace_result tr;
             ub_paths ps;
             int seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, &sp,
-                                     &pr);
+                                     0, &pr);
             start_paths(sc->hits, x, y, n, &tr, &ps);
             int alive = ((1 << n) - 1) & seen;
             ps.unseen = ~seen;

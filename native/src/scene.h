@@ -52,14 +52,23 @@ typedef enum {
     UB_PANORAMA_MIRRORBALL,
 } ub_panorama_type;
 
+/* A clip plane's points as an affine map of the image point (px, py): the homogeneous view-space
+ * point (x, y, z, w) of (px, py) on the plane is origin + px per_x + py per_y. */
+typedef struct {
+    double origin[4], per_x[4], per_y[4];
+} ub_clip_plane_map;
+
 typedef struct {
     /* Full image (not the window) in pixels. */
     int width, height;
     int orthographic;
     /* View space -> world: rotation columns and translation (the camera's matrix_world). */
     double cam_to_world[3][4];
-    /* Inverse of the projection matrix (Blender's calc_matrix_camera), view space from NDC. */
-    double inv_projection[4][4];
+    /* The inverse of the projection matrix (Blender's calc_matrix_camera; view space from NDC)
+     * on the clip-start (NDC z = -1) and clip-end (z = 1) planes, as maps of the image point:
+     * the NDC (2 px / width - 1, 2 py / height - 1) are affine in it, so the maps fold them in
+     * and a ray costs no per-pixel NDC (camera_projection.h). */
+    ub_clip_plane_map clip_start, clip_end;
     /* Unit vector of the camera's viewing axis in world space (-Z of the camera). */
     double forward[3];
     double position[3];
