@@ -207,11 +207,18 @@ static const double wedge_walls[3][3] = {{0.70710678118654752, -0.70710678118654
  * sponge, two: the corner cube (1, 1, 1) and the edge cube (1, 1, 0), by z >= 1/3), and repeats in
  * that piece's frame; its leaf ball gives exactly the distance to the union of all leaf balls, as
  * the mirror pieces' path does. Each level folds and compares against the few wedge pieces only,
- * not all m maps. The same tolerances as detect_mirror_pieces. */
+ * not all m maps. Tolerances: 1e-12 on the matrices, and 1e-7 of the radius on positions, since
+ * the add-on stores the maps in float32: its sponge's ratio 1/3 and offsets 2/3 round so that
+ * neighbouring pieces overlap by 3e-8 across the plane between them (1.7e-8 of the radius). A
+ * leaf ball's centre at most tol across that plane has its mirror image at most 2 tol farther, so
+ * each level may overstep the leaf balls' distance by 2 tol of its frame, all levels by at most
+ * 2 tol / (1 - s) (3e-7 of the radius for the sponge): less than the float32 rounding of the
+ * estimate (tests/native/test_ifs.py allows 2e-6 of the radius; the marcher's threshold is a
+ * pixel). */
 static int detect_folded_pieces(ub_object *o)
 {
     double s, fixed[UB_MAX_IFS_MAPS][3];
-    const double tol = 1e-9 * o->ifs_radius;
+    const double tol = 1e-7 * o->ifs_radius;
     if (!same_homothety(o, &s, fixed))
         return 0;
     /* The 48 signed permutations: 6 orders of the axes times 8 sign patterns. */

@@ -319,6 +319,9 @@ FOLDED = {
     "menger moved": [[[t[0][0], 0, 0, 2.5 * t[0][3] + 0.3 * (1 - t[0][0])],
                       [0, t[1][1], 0, 2.5 * t[1][3] - 1.1 * (1 - t[0][0])],
                       [0, 0, t[2][2], 2.5 * t[2][3] + 0.7 * (1 - t[0][0])]] for t in menger()[::-1]],
+    # As the add-on stores it: in float32 (ratio 0.33333334, offsets 0.6666667), so that the pieces
+    # overlap by 3e-8 across the planes between them (detect_folded_pieces' tolerance).
+    "menger float32": np.float64(np.float32(menger())).tolist(),
     # Edges and face centres of the 3-grid (no corners): wedge pieces (1, 1, 0) and (1, 0, 0).
     "edges and faces": grid_sponge(cube_cells(3, lambda u: u[1] == 1 or (u[0] == 1 and u[1] == 0)), 3),
     # The frame of a 4-grid (cells with two indices at the edge): wedge pieces (3/2, 3/2, 3/2),
@@ -333,11 +336,12 @@ def test_folded_pieces_are_detected_only_where_they_hold():
     """The folded estimate applies to homotheties of one ratio whose fixed points have the cube's 48
     symmetries about their centre, where the pieces outside the wedge x >= y >= z >= 0 lie beyond
     one of its walls and the wedge's pieces are pairwise mirror images: the Menger sponge (also
-    moved, grown, its maps in another order) and other patterns of a grid. Not: the corners with
-    the body centre (wedge pieces (1, 1, 1) and (0, 0, 0) are mirror images only through a plane
-    that is no symmetry), a map missing or moved, a matrix off by 1e-10, the sponge turned (the
-    fold is along the axes: the search), nor where the mirror path holds (the tetrahedron, whose
-    path takes precedence)."""
+    moved, grown, its maps in another order, in float32 as the add-on stores it) and other
+    patterns of a grid. Not: the corners with the body centre (wedge pieces (1, 1, 1) and
+    (0, 0, 0) are mirror images only through a plane that is no symmetry), a map missing or
+    moved, a matrix off by 1e-10, pieces overlapping by 2e-5 (ratio 0.33334; the float32 sponge's
+    overlap by 3e-8 is admitted), the sponge turned (the fold is along the axes: the search), nor
+    where the mirror path holds (the tetrahedron, whose path takes precedence)."""
     for name, maps in FOLDED.items():
         d = uc.describe(dict(kind="ifs", maps=maps))
         assert d["ifs_folded"] and not d["ifs_mirror"], name
@@ -348,8 +352,10 @@ def test_folded_pieces_are_detected_only_where_they_hold():
     near_copy = menger()
     near_copy[0][0][1] = 1e-10
     turned = moved(menger(), rotation(2, 0.3), (0, 0, 0))
+    # Ratio 0.33334: neighbouring pieces overlap by 2e-5, beyond the tolerance for float32 maps.
+    grown = [[[0.33334 if r == c else 0.0 for c in range(3)] + [m[r][3]] for r in range(3)] for m in menger()]
     for name, maps in [("corners and body", corners_and_body), ("a map missing", missing), ("a map moved", moved_map),
-                       ("a matrix off", near_copy), ("turned", turned), ("koch", koch()),
+                       ("a matrix off", near_copy), ("turned", turned), ("pieces overlapping", grown), ("koch", koch()),
                        ("sierpinski", tetrahedron())]:
         assert not uc.describe(dict(kind="ifs", maps=maps))["ifs_folded"], name
     # Far points settle at the root ball: finite, within float rounding.
