@@ -348,6 +348,7 @@ static inline void de_cubic(const ub_de_params *p, vm lanes, vf ar, vf ai, vf br
         x->normal[0] = x->normal[1] = x->normal[2] = v_set1(0.0f);
 }
 
+/* |x| as max(x, -x): the same bits in every kernel (-0 gives +0, NaN stays NaN). */
 static inline vf v_abs(vf x)
 {
     return v_max(x, v_sub(v_set1(0.0f), x));
@@ -478,8 +479,8 @@ static inline void de_ifs(const ub_de_params *p, vm lanes, vf x, vf y, vf z, con
                                  ub_de_extra *ex)
 {
     /* One path, every lane: they run side by side anyway. The folded path gives no address (the
-     * fold loses which of the symmetric pieces it came from); the orbit trap, asked once per hit,
-     * takes the path over all maps, as exact (de_ifs_folded). */
+     * fold loses which of the symmetric pieces it came from); the orbit trap, asked once per hit
+     * or mesh vertex, takes the path over all maps, as exact (de_ifs_folded). */
     if (p->obj->ifs_folded && !(want & UB_WANT_TRAP)) {
         de_ifs_folded(p->obj, x, y, z, want, dist, iters, ex);
         return;
