@@ -11,6 +11,8 @@ quaternion Julia row (CPU time: the steadier figure where other jobs share the c
     python bench/bench_first_look.py [--repeats 3] [--kinds IFS,QUATERNION_JULIA] [--percentage 100]
                                      [--dump DIR] [--extension ZIP]
 
+--kinds takes the Add menu's kinds; IFS:MENGER (IFS:KOCH) is the IFS with that shape preset.
+
 --extension ZIP installs that build instead of dist/'s (another branch's, for a before/after).
 
 --dump DIR also writes each kind's core call (camera, objects, shading, options) as a pickle,
@@ -41,13 +43,19 @@ BASE = "QUATERNION_JULIA"
 
 def startup_scene_add(mod, kind, percentage):
     """What tests/blender/bpy_scripts/first_render.py does: the factory startup file, the engine
-    switched as the Add menu's invoke does, the fractal added with the menu's options."""
+    switched as the Add menu's invoke does, the fractal added with the menu's options. A kind
+    written IFS:SHAPE then takes the IFS panel's shape preset (IFS:MENGER: the Menger sponge)."""
+    kind, _, shape = kind.partition(":")
     bpy.ops.wm.read_homefile(use_factory_startup=True)
     scene = bpy.context.scene
     scene.render.engine = 'UNBOUND'
     scene.render.resolution_percentage = percentage
     result = bpy.ops.object.unbound_fractal_add(kind=kind, **mod.operators.menu_options(bpy.context))
     assert result == {'FINISHED'}, result
+    if shape:
+        result = bpy.ops.object.unbound_ifs_shape(shape=shape)
+        assert result == {'FINISHED'}, result
+        bpy.context.object.update_tag()  # else --dump's evaluated depsgraph keeps the old maps
     return scene
 
 
@@ -101,7 +109,7 @@ def main():
         for kind in kinds:
             scene = startup_scene_add(mod, kind, args.percentage)
             if rnd == 0 and args.dump:
-                dump(mod, scene, pathlib.Path(args.dump) / (kind.lower() + ".pkl"))
+                dump(mod, scene, pathlib.Path(args.dump) / (kind.lower().replace(":", "-") + ".pkl"))
             t = f12(mod)
             if rnd:  # round 0 warms up
                 times[kind].append(t)

@@ -348,6 +348,12 @@ static inline void de_cubic(const ub_de_params *p, vm lanes, vf ar, vf ai, vf br
         x->normal[0] = x->normal[1] = x->normal[2] = v_set1(0.0f);
 }
 
+/* |x| as max(x, -x): the same bits in every kernel (-0 gives +0, NaN stays NaN). */
+static inline vf v_abs(vf x)
+{
+    return v_max(x, v_sub(v_set1(0.0f), x));
+}
+
 /* 3-D IFS with mirror-symmetric pieces (ifs.c, detect_mirror_pieces: the Sierpinski tetrahedron):
  * at each level the nearest leaf ball lies in the piece whose image of the centre is nearest, so
  * the estimate follows that one path, x <- (x - t_i) / s, and ends with its leaf ball's signed
@@ -403,14 +409,83 @@ static inline void de_ifs_mirror(const ub_object *o, vf x, vf y, vf z, const int
         ex->normal[0] = ex->normal[1] = ex->normal[2] = v_set1(0.0f);
 }
 
+/* 3-D IFS with the cube's symmetries (ifs.c, detect_folded_pieces: the Menger sponge): at each
+ * level the point, relative to the centre, is folded into the wedge x >= y >= z >= 0 (abs and a
+ * sorting network: exact in float), where the nearest leaf ball lies in the wedge piece whose
+ * image of the centre is nearest (two for the sponge), and the estimate goes on in that piece's
+ * frame, x <- (x - u_i) / s; it ends with the leaf ball's signed distance s^depth (|x| - R). The
+ * same exact distance to the union of all leaf balls as de_ifs_mirror, whose path over all maps
+ * is also exact here: it picks, before folding, the piece that the fold's wedge piece came from
+ * (the fold's symmetry maps one onto the other with the point), so the same distance up to ties
+ * and float rounding; that path alone knows the leaf's address, so it gives the orbit trap. A
+ * level costs a fold and fold_count distances instead of map_count (20 for the sponge). */
+static inline void de_ifs_folded(const ub_object *o, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
+                                 ub_de_extra *ex)
+{
+    const vf inverse = v_set1(o->mirror_inverse);
+    const float *c = o->mirror_root;
+    x = v_sub(x, v_set1(c[0]));
+    y = v_sub(y, v_set1(c[1]));
+    z = v_sub(z, v_set1(c[2]));
+    vf root = v_sqrt(v_fma(x, x, v_fma(y, y, v_mul(z, z))));
+    /* As de_ifs_mirror: beyond 1e6 radii the root ball's distance. */
+    vm far = v_gt(root, v_set1(1e6f * o->mirror_radius));
+    float scale = 1.0f;
+    for (int level = 0; level < o->ifs_depth; level++) {
+        x = v_abs(x);
+        y = v_abs(y);
+        z = v_abs(z);
+        vf hi = v_max(x, y), lo = v_min(x, y);
+        vf mid = v_max(lo, z);
+        z = v_min(lo, z);
+        x = v_max(hi, mid);
+        y = v_min(hi, mid);
+        const float *u = o->fold_center[0];
+        vf ux = v_set1(u[0]), uy = v_set1(u[1]), uz = v_set1(u[2]);
+        vf dx = v_sub(x, ux), dy = v_sub(y, uy), dz = v_sub(z, uz);
+        vf nearest2 = v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)));
+        for (int i = 1; i < o->fold_count; i++) {
+            u = o->fold_center[i];
+            dx = v_sub(x, v_set1(u[0]));
+            dy = v_sub(y, v_set1(u[1]));
+            dz = v_sub(z, v_set1(u[2]));
+            vf e2 = v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)));
+            vm closer = v_lt(e2, nearest2); /* ties (and NaN) keep the lower index */
+            nearest2 = v_select(closer, e2, nearest2);
+            ux = v_select(closer, v_set1(u[0]), ux);
+            uy = v_select(closer, v_set1(u[1]), uy);
+            uz = v_select(closer, v_set1(u[2]), uz);
+        }
+        x = v_mul(v_sub(x, ux), inverse);
+        y = v_mul(v_sub(y, uy), inverse);
+        z = v_mul(v_sub(z, uz), inverse);
+        scale *= o->mirror_ratio;
+    }
+    vf leaf = v_sub(v_sqrt(v_fma(x, x, v_fma(y, y, v_mul(z, z)))), v_set1(o->mirror_radius));
+    *dist = v_select(far, v_sub(root, v_set1(o->mirror_radius)), v_mul(leaf, v_set1(scale)));
+    vm finite = v_le(v_sub(*dist, *dist), v_set1(0.0f));
+    *iters = v_select(finite, v_set1((float)o->ifs_depth), v_set1(0.0f));
+    if (want & UB_WANT_POTENTIAL)
+        ex->potential = v_set1(0.0f);
+    if (want & UB_WANT_JACOBIAN)
+        ex->normal[0] = ex->normal[1] = ex->normal[2] = v_set1(0.0f);
+}
+
 /* 3-D IFS (section 5.3): the bounding-ball hierarchy of ifs.c, lane by lane in double precision
- * (mirror-symmetric pieces: de_ifs_mirror). The bound is signed (negative inside a leaf ball), so
- * gradients give the leaves' normals. The escape count is the depth that settled the bound, the
- * orbit trap the leaf's address. */
+ * (mirror-symmetric pieces: de_ifs_mirror; the cube's symmetries: de_ifs_folded). The bound is
+ * signed (negative inside a leaf ball), so gradients give the leaves' normals. The escape count is
+ * the depth that settled the bound, the orbit trap the leaf's address. */
 static inline void de_ifs(const ub_de_params *p, vm lanes, vf x, vf y, vf z, const int want, vf *dist, vf *iters,
                                  ub_de_extra *ex)
 {
-    if (p->obj->ifs_mirror) { /* every lane: they run side by side anyway */
+    /* One path, every lane: they run side by side anyway. The folded path gives no address (the
+     * fold loses which of the symmetric pieces it came from); the orbit trap, asked once per hit
+     * or mesh vertex, takes the path over all maps, as exact (de_ifs_folded). */
+    if (p->obj->ifs_folded && !(want & UB_WANT_TRAP)) {
+        de_ifs_folded(p->obj, x, y, z, want, dist, iters, ex);
+        return;
+    }
+    if (p->obj->ifs_mirror || p->obj->ifs_folded) {
         de_ifs_mirror(p->obj, x, y, z, want, dist, iters, ex);
         return;
     }

@@ -27,11 +27,6 @@ static inline vf v_round_int(vf x)
     return v_sub(v_add(x, magic), magic);
 }
 
-static inline vf v_abs(vf x)
-{
-    return v_max(x, v_sub(v_set1(0.0f), x));
-}
-
 static inline vf v_neg_if(vm m, vf x)
 {
     return v_select(m, v_sub(v_set1(0.0f), x), x);

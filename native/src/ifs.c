@@ -57,35 +57,17 @@ static void apply(const double m[3][4], const double p[3], double out[3])
         out[r] = m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3];
 }
 
-/* Mirror-symmetric pieces (the Sierpinski tetrahedron): when the nearest piece is known without a
- * search. Every map must be the same homothety x -> s x + t_i (0 < s < 1). Then the convex hull of
- * the attractor A is that of the fixed points f_i (its support function h solves
- * h(u) = max_i (t_i.u + s h(u)), so h(u) = max_i f_i.u), and the piece A_i = w_i(A) has the hull
- * of the w_i(f_l). For each pair i, j let P be the plane bisecting v_i = w_i(c) and v_j = w_j(c)
- * (c the centre, the fixed points' centroid) and n its normal toward v_i. If
- *   (1) the reflection g through c with normal n permutes the fixed points, it permutes the maps
- *       (g w_k g^-1 has ratio s and fixed point g(f_k)) and keeps the ball B(c, R), so it permutes
- *       the leaf balls; and the reflection in P, sigma = w_j g w_i^-1, sends piece i's leaf balls
- *       onto piece j's;
- *   (2) the hull of A_i, which holds the centres of piece i's leaf balls (c lies in the hull of
- *       A), lies on v_i's side of P (touching allowed),
- * then for p on v_i's side each leaf ball of piece j has its mirror image in piece i with a centre
- * no farther from p: the nearest leaf ball (in |p - centre| - radius) lies in piece i. Holding for
- * every pair: it lies in the piece whose v_i is nearest p, and so on down one path, whose leaf ball
- * gives exactly the distance to the union of all leaf balls, as the full search would. The
- * tolerances (1e-12 on the matrices, 1e-9 of the radius on positions) admit map sets rounded from
- * exact ones; the estimate is then off by as little. */
-static int detect_mirror_pieces(ub_object *o)
+/* Whether every map is the same homothety x -> s x + t_i (0 < s < 1, to 1e-12 on the matrices);
+ * then *ratio = s and fixed[i] = t_i / (1 - s). The one-path estimates below need it; so that the
+ * path's point, which grows as 1 / s per level away from the set, stays far from float overflow
+ * (the kernels take points within 1e6 radii of the centre down the path; farther ones settle at
+ * the root ball, de_ifs_mirror), steeper systems keep the search. */
+static int same_homothety(const ub_object *o, double *ratio, double fixed[][3])
 {
-    const int m = o->map_count;
-    const double s = o->maps[0][0][0], tol = 1e-9 * o->ifs_radius;
-    /* The path's point grows as 1 / s per level away from the set: in float it must stay far from
-     * overflow (the kernel takes points within 1e6 radii of the centre down the path; farther
-     * ones settle at the root ball, de_ifs_mirror). Steeper systems keep the search. */
+    const double s = o->maps[0][0][0];
     if (!(s > 0.0 && s < 1.0) || o->ifs_radius * ub_pow(s, -o->ifs_depth) > 1e12)
         return 0;
-    double fixed[UB_MAX_IFS_MAPS][3];
-    for (int i = 0; i < m; i++) {
+    for (int i = 0; i < o->map_count; i++) {
         for (int r = 0; r < 3; r++) {
             for (int c = 0; c < 3; c++)
                 if (!(fabs(o->maps[i][r][c] - (r == c ? s : 0.0)) <= 1e-12))
@@ -93,37 +75,74 @@ static int detect_mirror_pieces(ub_object *o)
             fixed[i][r] = o->maps[i][r][3] / (1.0 - s);
         }
     }
-    for (int i = 0; i < m; i++) {
-        for (int j = i + 1; j < m; j++) {
-            const double *vi = o->map_center[i], *vj = o->map_center[j];
-            double len = dist3(vi, vj), n[3], mid[3];
-            if (!(len > tol))
-                return 0; /* two maps alike: nothing to choose between, but no plane either */
-            for (int r = 0; r < 3; r++) {
-                n[r] = (vi[r] - vj[r]) / len;
-                mid[r] = 0.5 * (vi[r] + vj[r]);
-            }
-            for (int k = 0; k < m; k++) {
-                double g[3], side_i[3], image[3], h = 0.0;
-                for (int r = 0; r < 3; r++)
-                    h += (fixed[k][r] - o->ifs_center[r]) * n[r];
-                for (int r = 0; r < 3; r++)
-                    g[r] = fixed[k][r] - 2.0 * h * n[r];
-                int found = 0;
-                for (int l = 0; l < m && !found; l++)
-                    found = dist3(g, fixed[l]) <= tol;
-                if (!found)
-                    return 0; /* (1) */
-                apply(o->maps[i], fixed[k], image);
-                for (int r = 0; r < 3; r++)
-                    side_i[r] = image[r] - mid[r];
-                if (!(side_i[0] * n[0] + side_i[1] * n[1] + side_i[2] * n[2] >= -tol))
-                    return 0; /* (2) */
-            }
-        }
+    *ratio = s;
+    return 1;
+}
+
+/* Whether g (a map of the centre's neighbourhood: x -> c + lin (x - c)) permutes the fixed
+ * points to within tol: then it permutes the maps (g w_k g^-1 has ratio s and fixed point g(f_k))
+ * and keeps the ball B(c, R), so it permutes the leaf balls of every depth. */
+static int permutes_fixed_points(const ub_object *o, const double fixed[][3], const double lin[3][3], double tol)
+{
+    const double *c = o->ifs_center;
+    for (int k = 0; k < o->map_count; k++) {
+        double g[3];
+        for (int r = 0; r < 3; r++)
+            g[r] = c[r] + lin[r][0] * (fixed[k][0] - c[0]) + lin[r][1] * (fixed[k][1] - c[1])
+                 + lin[r][2] * (fixed[k][2] - c[2]);
+        int found = 0;
+        for (int l = 0; l < o->map_count && !found; l++)
+            found = dist3(g, fixed[l]) <= tol;
+        if (!found)
+            return 0;
     }
-    /* What the kernels' descent (estimators.h, de_ifs_mirror) reads, in their precision. */
-    for (int i = 0; i < m; i++) {
+    return 1;
+}
+
+/* Whether the hull of piece i, that of the w_i(f_l), lies on the side n.x >= level (to within
+ * tol). */
+static int piece_on_side(const ub_object *o, const double fixed[][3], int i, const double n[3], double level,
+                         double tol)
+{
+    for (int k = 0; k < o->map_count; k++) {
+        double image[3];
+        apply(o->maps[i], fixed[k], image);
+        if (!(image[0] * n[0] + image[1] * n[1] + image[2] * n[2] - level >= -tol))
+            return 0;
+    }
+    return 1;
+}
+
+/* Pieces i and j as mirror images (see detect_mirror_pieces): with P the plane bisecting
+ * v_i = w_i(c) and v_j = w_j(c) and n its normal toward v_i,
+ *   (1) the reflection g through c with normal n permutes the fixed points (permutes_fixed_points),
+ *       so the reflection in P, sigma = w_j g w_i^-1, sends piece i's leaf balls onto piece j's;
+ *   (2) the hull of A_i, which holds the centres of piece i's leaf balls (c lies in the hull of
+ *       A), lies on v_i's side of P (touching allowed), and that of A_j on v_j's side.
+ * Then for p on v_i's side each leaf ball of piece j has its mirror image in piece i with a centre
+ * no farther from p, and the other way round. */
+static int pieces_are_mirrors(const ub_object *o, const double fixed[][3], int i, int j, double tol)
+{
+    const double *vi = o->map_center[i], *vj = o->map_center[j];
+    double len = dist3(vi, vj), n[3], lin[3][3], level = 0.0;
+    if (!(len > tol))
+        return 0; /* two maps alike: nothing to choose between, but no plane either */
+    for (int r = 0; r < 3; r++) {
+        n[r] = (vi[r] - vj[r]) / len;
+        level += 0.5 * (vi[r] + vj[r]) * n[r];
+    }
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            lin[r][c] = (r == c ? 1.0 : 0.0) - 2.0 * n[r] * n[c];
+    double back[3] = {-n[0], -n[1], -n[2]};
+    return permutes_fixed_points(o, fixed, lin, tol) && piece_on_side(o, fixed, i, n, level, tol)
+        && piece_on_side(o, fixed, j, back, -level, tol);
+}
+
+/* What the kernels' descent (estimators.h, de_ifs_mirror) reads, in their precision. */
+static void store_path_constants(ub_object *o, double s)
+{
+    for (int i = 0; i < o->map_count; i++) {
         for (int r = 0; r < 3; r++) {
             o->mirror_center[i][r] = (float)o->map_center[i][r];
             o->mirror_offset[i][r] = (float)o->maps[i][r][3];
@@ -134,6 +153,122 @@ static int detect_mirror_pieces(ub_object *o)
     o->mirror_radius = (float)o->ifs_radius;
     o->mirror_ratio = (float)s;
     o->mirror_inverse = (float)(1.0 / s);
+}
+
+/* Mirror-symmetric pieces (the Sierpinski tetrahedron): when the nearest piece is known without a
+ * search. Every map must be the same homothety x -> s x + t_i (0 < s < 1). Then the convex hull of
+ * the attractor A is that of the fixed points f_i (its support function h solves
+ * h(u) = max_i (t_i.u + s h(u)), so h(u) = max_i f_i.u), and the piece A_i = w_i(A) has the hull
+ * of the w_i(f_l). If every pair of pieces are mirror images (pieces_are_mirrors), then for p on
+ * v_i's side of the plane bisecting v_i, v_j the nearest leaf ball (in |p - centre| - radius) is
+ * not in piece j. Holding for every pair: it lies in the piece whose v_i is nearest p, and so on
+ * down one path, whose leaf ball gives exactly the distance to the union of all leaf balls, as the
+ * full search would. The tolerances (1e-12 on the matrices, 1e-9 of the radius on positions) admit
+ * map sets rounded from exact ones; the estimate is then off by as little. */
+static int detect_mirror_pieces(ub_object *o)
+{
+    double s, fixed[UB_MAX_IFS_MAPS][3];
+    const double tol = 1e-9 * o->ifs_radius;
+    if (!same_homothety(o, &s, fixed))
+        return 0;
+    for (int i = 0; i < o->map_count; i++)
+        for (int j = i + 1; j < o->map_count; j++)
+            if (!pieces_are_mirrors(o, fixed, i, j, tol))
+                return 0;
+    store_path_constants(o, s);
+    return 1;
+}
+
+/* The walls of the cube's fundamental wedge W = {x >= y >= z >= 0} (about the centre): their
+ * normals into W. */
+static const double wedge_walls[3][3] = {{0.70710678118654752, -0.70710678118654752, 0.0},
+                                         {0.0, 0.70710678118654752, -0.70710678118654752},
+                                         {0.0, 0.0, 1.0}};
+
+/* Pieces with the cube's symmetry (the Menger sponge and the other sponges cut from a box in a
+ * regular grid by a symmetric pattern): when the nearest piece is known after a fold. Every map
+ * must be the same homothety, and the 48 signed permutations of the axes about the centre c (the
+ * cube's symmetries, the group G) must permute the fixed points, hence the maps and the leaf balls
+ * (permutes_fixed_points). Not every pair of pieces is a mirror pair (two opposite corner cubes of
+ * the sponge are mirror images only through a plane that is no symmetry of it), but:
+ *   (a) G is generated by the reflections in the walls of W, and for p, q in W and any g in G,
+ *       |p - q| <= |p - g q| (reflecting q across a wall that separates it from p only brings it
+ *       closer; with p on the wall, the reflection fixes p and changes nothing). So for p folded
+ *       into W (abs of each coordinate, sorted: exact in float), the nearest leaf ball has a
+ *       mirror image, equally a leaf ball, whose centre lies in W too and is no farther.
+ *   (b) Every piece whose v_i - c lies outside W (the others are the wedge pieces) has its hull on
+ *       the far side of one wall, touching allowed, with v_i strictly beyond it. A leaf ball's
+ *       centre is an inner point of its piece's hull (c is inner to the hull of A: the fixed
+ *       points are G-symmetric about c, not all at c, so they span the space), hence beyond that
+ *       wall, out of W. So the leaf ball of (a) lies in a wedge piece.
+ *   (c) Every pair of wedge pieces are mirror images (pieces_are_mirrors): among them the nearest
+ *       leaf ball lies in the piece whose v_i is nearest p, as for detect_mirror_pieces.
+ * So the estimate folds p into W, goes down the wedge piece whose v_i is nearest (for the Menger
+ * sponge, two: the corner cube (1, 1, 1) and the edge cube (1, 1, 0), by z >= 1/3), and repeats in
+ * that piece's frame; its leaf ball gives exactly the distance to the union of all leaf balls, as
+ * the mirror pieces' path does. Each level folds and compares against the few wedge pieces only,
+ * not all m maps. Tolerances: 1e-12 on the matrices, and 1e-7 of the radius on positions, since
+ * the add-on stores the maps in float32: its sponge's ratio 1/3 and offsets 2/3 round so that
+ * neighbouring pieces overlap by 3e-8 across the plane between them (1.7e-8 of the radius). A
+ * leaf ball's centre at most tol across that plane has its mirror image at most 2 tol farther, so
+ * each level may overstep the leaf balls' distance by 2 tol of its frame, all levels by at most
+ * 2 tol / (1 - s) (3e-7 of the radius for the sponge): less than the float32 rounding of the
+ * estimate (tests/native/test_ifs.py allows 2e-6 of the radius; the marcher's threshold is a
+ * pixel). */
+static int detect_folded_pieces(ub_object *o)
+{
+    double s, fixed[UB_MAX_IFS_MAPS][3];
+    const double tol = 1e-7 * o->ifs_radius;
+    if (!same_homothety(o, &s, fixed))
+        return 0;
+    /* The 48 signed permutations: 6 orders of the axes times 8 sign patterns. */
+    static const int orders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+    for (int k = 0; k < 6; k++) {
+        for (int signs = 0; signs < 8; signs++) {
+            double lin[3][3] = {{0}};
+            for (int r = 0; r < 3; r++)
+                lin[r][orders[k][r]] = (signs >> r) & 1 ? -1.0 : 1.0;
+            if (!permutes_fixed_points(o, fixed, lin, tol))
+                return 0;
+        }
+    }
+    int wedge[UB_MAX_IFS_MAPS], count = 0;
+    for (int i = 0; i < o->map_count; i++) {
+        double u[3];
+        int in_wedge = 1;
+        for (int r = 0; r < 3; r++)
+            u[r] = o->map_center[i][r] - o->ifs_center[r];
+        for (int w = 0; w < 3; w++)
+            in_wedge &= u[0] * wedge_walls[w][0] + u[1] * wedge_walls[w][1] + u[2] * wedge_walls[w][2] >= -tol;
+        if (in_wedge) {
+            wedge[count++] = i;
+            continue;
+        }
+        /* (b): outside W, its hull beyond some wall. */
+        int beyond_a_wall = 0;
+        for (int w = 0; w < 3 && !beyond_a_wall; w++) {
+            double n[3], level = 0.0, h = 0.0;
+            for (int r = 0; r < 3; r++) {
+                n[r] = -wedge_walls[w][r];
+                level += n[r] * o->ifs_center[r];
+                h += u[r] * n[r];
+            }
+            beyond_a_wall = h > tol && piece_on_side(o, fixed, i, n, level, tol);
+        }
+        if (!beyond_a_wall)
+            return 0;
+    }
+    if (count < 1)
+        return 0;
+    for (int a = 0; a < count; a++)
+        for (int b = a + 1; b < count; b++)
+            if (!pieces_are_mirrors(o, fixed, wedge[a], wedge[b], tol))
+                return 0; /* (c) */
+    store_path_constants(o, s);
+    o->fold_count = count;
+    for (int a = 0; a < count; a++)
+        for (int r = 0; r < 3; r++)
+            o->fold_center[a][r] = (float)(o->map_center[wedge[a]][r] - o->ifs_center[r]);
     return 1;
 }
 
@@ -178,6 +313,7 @@ const char *ub_ifs_prepare(ub_object *o)
     if (!isfinite(o->ifs_radius) || o->ifs_radius > 1e6)
         return "the IFS attractor is too large (its bounding ball exceeds 1e6 object units)";
     o->ifs_mirror = detect_mirror_pieces(o);
+    o->ifs_folded = !o->ifs_mirror && detect_folded_pieces(o);
     return NULL;
 }
 

@@ -1046,9 +1046,10 @@ static PyObject *py_describe(PyObject *self, PyObject *args)
     if (!parse_object(obj_o, "object", o)) {
         const double(*b)[3] = o->slice_basis;
         double world_radius = o->bound_radius > 0.0 ? o->bound_radius * o->sigma_max : o->bound_radius;
-        result = Py_BuildValue("{s:s,s:i,s:O,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}",
+        result = Py_BuildValue("{s:s,s:i,s:O,s:O,s:O,s:d,s:d,s:(ddd),s:d,s:d,s:d,s:d,s:d,s:(dddd),s:((ddd)(ddd)(ddd)(ddd))}",
                                "kind", ub_kind_names[o->kind], "max_iterations", o->max_iterations, "exact", o->exact ? Py_True : Py_False,
                                "ifs_mirror", o->kind == UB_KIND_IFS && o->ifs_mirror ? Py_True : Py_False,
+                               "ifs_folded", o->kind == UB_KIND_IFS && o->ifs_folded ? Py_True : Py_False,
                                "step_factor", o->step_factor, "max_step", o->max_step, "bound_center",
                                o->bound_center[0], o->bound_center[1], o->bound_center[2], "bound_radius",
                                o->bound_radius, "world_bound_radius", world_radius, "bailout", o->bailout,
@@ -1421,7 +1422,8 @@ static PyMethodDef methods[] = {
     {"describe", py_describe, METH_VARARGS,
      "describe(object) -> derived values: bounding ball (object space, and its radius in the world), effective "
      "bailout, max_iterations (a zoomed object's grow with the zoom), singular values of the placement, slice after the theta rotation, ifs_mirror (an IFS whose pieces are "
-     "mirror images: its estimate follows one path, no search)"},
+     "mirror images: its estimate follows one path, no search), ifs_folded (an IFS with the cube's symmetries, the "
+     "Menger sponge: one path after folding into a wedge, no search)"},
     {"cpu_info", py_cpu_info, METH_NOARGS, "cpu_info() -> {'cpus': n, 'avx2_fma': bool, 'avx512': bool}"},
     {"_zoom_probe", (PyCFunction)(void (*)(void))py_zoom_probe, METH_VARARGS | METH_KEYWORDS,
      "_zoom_probe(object, points, path, want, *, simd='auto', scalar=False) -> bytes: private test hook of the "

@@ -219,7 +219,12 @@ typedef struct {
      * of one ratio whose pieces are pairwise mirror images (ifs.c, detect_mirror_pieces), so the
      * nearest piece is the one with the nearest image of the centre and the estimate follows one
      * path down the hierarchy (estimators.h, de_ifs_mirror) instead of a search; mirror_*: the
-     * centre's images, the offsets t, the centre, radius, s and 1 / s in float. */
+     * centre's images, the offsets t, the centre, radius, s and 1 / s in float. ifs_folded: the
+     * same homotheties with the cube's symmetries about the centre (the Menger sponge; ifs.c,
+     * detect_folded_pieces), so the point folded into the wedge x >= y >= z >= 0 finds the nearest
+     * piece among the fold_count wedge pieces, whose centre's images (minus the centre) are
+     * fold_center (estimators.h, de_ifs_folded); it also fills mirror_*, whose path over all maps
+     * gives the orbit trap. */
     int map_count, ifs_depth;
     double maps[UB_MAX_IFS_MAPS][3][4];
     double map_norm[UB_MAX_IFS_MAPS];
@@ -228,6 +233,8 @@ typedef struct {
     int ifs_mirror;
     float mirror_center[UB_MAX_IFS_MAPS][3], mirror_offset[UB_MAX_IFS_MAPS][3];
     float mirror_root[3], mirror_radius, mirror_ratio, mirror_inverse;
+    int ifs_folded, fold_count;
+    float fold_center[UB_MAX_IFS_MAPS][3];
     /* Mandelbulb and Mandelbox (formulas.h): Julia mode (c = julia_c, else c = the point), the
      * triplex power, and the Mandelbox's scale, fold limit and sphere-fold radii. */
     int julia_mode;

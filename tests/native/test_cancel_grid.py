@@ -1,6 +1,6 @@
 """Cancel latency over a grid of heavy but valid settings (issue 16, defect 2): every kind at the UI's
 limits (10000 iterations, 64 bisection steps, 32 AO samples, 16 reflection bounces, 1024 GI bounces, a 32-map IFS at
-depth 16, soft shadows from six lights, the sea, several objects), cancelled while the camera rays
+depth 16, the Menger sponge's folded path at depth 16, soft shadows from six lights, the sea, several objects), cancelled while the camera rays
 march (phase 0) and while the hits are shaded (phase 1: normals, lights, shadows, AO, sea waves,
 reflections), with one render thread.
 
@@ -43,6 +43,12 @@ HEAVY = dict(max_iterations=10000, bisection_steps=64, reflectivity=0.9)
 CASES = {
     "ifs_32_maps_depth_16_ao_8_instances": (
         [dict(kind="ifs", maps=overlapping_maps(), ifs_depth=16, matrix=m) for m in instances(8, 0.3)], AO, 8),
+    # The Menger sponge's folded one-path estimate (ifs.c detect_folded_pieces) at the deepest depth.
+    "ifs_menger_depth_16_everything": (
+        [dict(kind="ifs", maps=[[[1 / 3, 0, 0, 2 * x / 3], [0, 1 / 3, 0, 2 * y / 3], [0, 0, 1 / 3, 2 * z / 3]]
+                                for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if abs(x) + abs(y) + abs(z) > 1],
+              ifs_depth=16, reflectivity=0.9, matrix=m)
+         for m in instances(4)], EVERYTHING, 320),
     "julia_potential_normals_everything": (
         [dict(HEAVY, mu=(-0.2, 0.8, 0.1, 0.0), normal_method="gradient_potential", matrix=m) for m in instances(4)],
         EVERYTHING, 256),

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import HEAVY_SHADING, estimate, make_camera, pixel_rays, render
+from conftest import HEAVY_SHADING, KERNELS, estimate, make_camera, pixel_rays, render
 from reference import families64 as ref
 
 
@@ -122,7 +122,7 @@ def ray_entry(origin, direction, centres, radii):
     return np.where(t >= 0, t, np.inf).min(axis=1)
 
 
-@pytest.mark.parametrize("name,depth", [("sierpinski", 4), ("sierpinski", 6), ("menger", 2), ("koch", 2),
+@pytest.mark.parametrize("name,depth", [("sierpinski", 4), ("sierpinski", 6), ("menger", 2), ("menger", 3), ("koch", 2),
                                         ("random affine", 3)])
 def test_hits_are_the_leaf_balls(name, depth):
     """Rendered with a fixed threshold eps: every ray that enters a leaf ball hits, never beyond
@@ -295,14 +295,137 @@ def test_mirror_estimate_against_the_general_search():
         np.testing.assert_allclose(search[inside], one_path[inside], atol=2e-5)
 
 
-def test_mirror_estimate_is_bit_identical_for_threads_tiles_and_simd():
-    """The one-path estimate runs in the kernels' vectors: both kernels and any thread count or
-    tile size give the same bytes, with every effect (shadows, AO, reflections, sea, fog, glow)."""
+# -- the cube's symmetries: one path after a fold (ifs.c detect_folded_pieces) ---------------------
+
+def grid_sponge(cells, k):
+    """Maps of ratio 1/k onto the cells (integer grid indices, centred: -(k-1)/2 .. (k-1)/2 in
+    steps of 1) of the cube [-1, 1]^3 cut into k^3."""
+    s = 1.0 / k
+    return [[[s, 0, 0, 2 * s * a], [0, s, 0, 2 * s * b], [0, 0, s, 2 * s * c]] for a, b, c in cells]
+
+
+def cube_cells(k, keep):
+    """The cells of a k-grid kept by keep(sorted |indices|, descending): a pattern with the cube's
+    48 symmetries."""
+    half = (k - 1) / 2
+    axis = [i - half for i in range(k)]
+    return [(a, b, c) for a in axis for b in axis for c in axis
+            if keep(sorted((abs(a), abs(b), abs(c)), reverse=True))]
+
+
+FOLDED = {
+    "menger": menger(),
+    # The same sponge in another order of the maps, moved and grown (x -> 2.5 x + o).
+    "menger moved": [[[t[0][0], 0, 0, 2.5 * t[0][3] + 0.3 * (1 - t[0][0])],
+                      [0, t[1][1], 0, 2.5 * t[1][3] - 1.1 * (1 - t[0][0])],
+                      [0, 0, t[2][2], 2.5 * t[2][3] + 0.7 * (1 - t[0][0])]] for t in menger()[::-1]],
+    # As the add-on stores it: in float32 (ratio 0.33333334, offsets 0.6666667), so that the pieces
+    # overlap by 3e-8 across the planes between them (detect_folded_pieces' tolerance).
+    "menger float32": np.float64(np.float32(menger())).tolist(),
+    # Edges and face centres of the 3-grid (no corners): wedge pieces (1, 1, 0) and (1, 0, 0).
+    "edges and faces": grid_sponge(cube_cells(3, lambda u: u[1] == 1 or (u[0] == 1 and u[1] == 0)), 3),
+    # The frame of a 4-grid (cells with two indices at the edge): wedge pieces (3/2, 3/2, 3/2),
+    # (3/2, 3/2, 1/2).
+    "4-grid frame": grid_sponge(cube_cells(4, lambda u: u[1] == 1.5), 4),
+    # All 8 cells of a 2-grid (the solid cube): one wedge piece.
+    "2-grid cube": grid_sponge(cube_cells(2, lambda u: True), 2),
+}
+
+
+def test_folded_pieces_are_detected_only_where_they_hold():
+    """The folded estimate applies to homotheties of one ratio whose fixed points have the cube's 48
+    symmetries about their centre, where the pieces outside the wedge x >= y >= z >= 0 lie beyond
+    one of its walls and the wedge's pieces are pairwise mirror images: the Menger sponge (also
+    moved, grown, its maps in another order, in float32 as the add-on stores it) and other
+    patterns of a grid. Not: the corners with the body centre (wedge pieces (1, 1, 1) and
+    (0, 0, 0) are mirror images only through a plane that is no symmetry), a map missing or
+    moved, a matrix off by 1e-10, pieces overlapping by 2e-5 (ratio 0.33334; the float32 sponge's
+    overlap by 3e-8 is admitted), the sponge turned (the fold is along the axes: the search), nor
+    where the mirror path holds (the tetrahedron, whose path takes precedence)."""
+    for name, maps in FOLDED.items():
+        d = uc.describe(dict(kind="ifs", maps=maps))
+        assert d["ifs_folded"] and not d["ifs_mirror"], name
+    corners_and_body = grid_sponge(cube_cells(3, lambda u: u[2] == 1 or u[0] == 0), 3)
+    missing = menger()[1:]
+    moved_map = menger()
+    moved_map[5][1][3] += 1e-4
+    near_copy = menger()
+    near_copy[0][0][1] = 1e-10
+    turned = moved(menger(), rotation(2, 0.3), (0, 0, 0))
+    # Ratio 0.33334: neighbouring pieces overlap by 2e-5, beyond the tolerance for float32 maps.
+    grown = [[[0.33334 if r == c else 0.0 for c in range(3)] + [m[r][3]] for r in range(3)] for m in menger()]
+    for name, maps in [("corners and body", corners_and_body), ("a map missing", missing), ("a map moved", moved_map),
+                       ("a matrix off", near_copy), ("turned", turned), ("pieces overlapping", grown), ("koch", koch()),
+                       ("sierpinski", tetrahedron())]:
+        assert not uc.describe(dict(kind="ifs", maps=maps))["ifs_folded"], name
+    # Far points settle at the root ball: finite, within float rounding.
+    far = np.array([[3e8, 1.0, 2.0], [-1e7, 0.0, 0.0]])
+    est, _, pts = estimate(dict(kind="ifs", maps=menger(), ifs_depth=4), far)
+    np.testing.assert_allclose(est, np.linalg.norm(pts, axis=1) - math.sqrt(3), rtol=1e-6)
+
+
+@pytest.mark.parametrize("name", list(FOLDED))
+def test_folded_estimate_is_the_leaf_balls_distance_everywhere(name):
+    """The folded path is the signed distance to the union of all leaf balls, min |p - c| - r over
+    the m^depth balls (float64, enumerated: 160 000 for the sponge at the add-on's depth 4), not
+    only inside them (the search settles early outside, within its factor 1.875): equal up to
+    float32 rounding at every depth up to 4 (3 for the other patterns, up to 32 maps), all around
+    the set, near it and far from it. And never more than the distance to the attractor (chaos
+    game, 5000 points)."""
+    rng = np.random.default_rng(21)
+    system = ref.IFS(FOLDED[name])
+    attractor = system.chaos_game(5000, seed=6)
+    points = np.concatenate([query_points(system, rng, 300),
+                             system.center + rng.normal(size=(60, 3)) * 20.0])
+    assert uc.describe(dict(kind="ifs", maps=FOLDED[name], ifs_depth=4))["ifs_folded"]
+    deepest = 4 if name.startswith("menger") else 3
+    for depth in range(deepest + 1):
+        centres, radii = system.leaves(depth)
+        est, iters, pts = estimate(dict(kind="ifs", maps=FOLDED[name], ifs_depth=depth), points)
+        leaf = ref.leaf_distance(pts, centres, radii, chunk=16)
+        np.testing.assert_allclose(est, leaf, rtol=2e-6, atol=2e-6 * system.radius, err_msg=f"depth {depth}")
+        assert (iters == depth).all()
+        # Outside the balls the search's settled bound is below this by up to its factor 1.875;
+        # points within that margin make the test able to tell the two apart.
+        if depth == deepest:
+            assert np.mean((leaf > 0.01) & (leaf < 0.3)) > 0.1
+    nearest = ref.leaf_distance(pts, attractor, np.zeros(len(attractor)), chunk=256)
+    assert np.all(est <= nearest + 2e-6 * (system.radius + np.abs(nearest)))
+
+
+def test_folded_estimate_against_the_general_search():
+    """The Menger sponge with one map's matrix off by 1e-10 (the general branch and bound) against
+    the folded path at the add-on's depth 4: the search's bound lies below the folded estimate
+    (both bound the same leaf balls, the search from below), within its factor 1.875 of it outside
+    the balls and equal inside; the folded one is strictly larger at many points outside (the
+    search settles early), so the two differ and the folded path is the one the sponge takes."""
+    near_copy = menger()
+    near_copy[0][0][1] = 1e-10
+    assert not uc.describe(dict(kind="ifs", maps=near_copy))["ifs_folded"]
+    rng = np.random.default_rng(22)
+    points = query_points(ref.IFS(menger()), rng, 2000)
+    for depth in (2, 4):
+        folded, _, _ = estimate(dict(kind="ifs", maps=menger(), ifs_depth=depth), points)
+        search, _, _ = estimate(dict(kind="ifs", maps=near_copy, ifs_depth=depth), points)
+        tol = 2e-5 * (1 + np.abs(folded))
+        assert np.all(search <= folded + tol)
+        outside = folded > 0
+        assert np.all(search[outside] >= folded[outside] / 1.875 - tol[outside])
+        np.testing.assert_allclose(search[~outside], folded[~outside], atol=2e-5)
+        assert np.mean(folded[outside] > 1.1 * search[outside] + tol[outside]) > 0.05
+
+
+@pytest.mark.parametrize("name", ["sierpinski", "menger"])
+def test_one_path_estimates_are_bit_identical_for_threads_tiles_and_simd(name):
+    """The one-path estimates run in the kernels' vectors: every kernel and any thread count or
+    tile size give the same bytes, with every effect (shadows, AO, reflections, sea, fog, glow) and
+    the orbit trap (the path over all maps, for the sponge too)."""
     cam = make_camera(53, 37, eye=(-1.8, -3.6, 1.6))
-    obj = dict(kind="ifs", maps=tetrahedron(), ifs_depth=6, color_mode="orbit_trap", reflectivity=0.3)
+    obj = dict(kind="ifs", maps=SYSTEMS[name], ifs_depth=6 if name == "sierpinski" else 4,
+               color_mode="orbit_trap", reflectivity=0.3)
     ref_passes, ref_stats = render(cam, [obj], threads=1, tile_size=32, shading=HEAVY_SHADING)
-    paths = ["portable"] + (["avx2"] if uc.cpu_info()["avx2_fma"] else [])
-    for threads, tile, simd in [(2, 13, paths[-1]), (7, 1, "portable"), (3, 64, paths[0]), (1, 32, paths[-1])]:
+    for threads, tile, simd in [(2, 13, KERNELS[-1]), (7, 1, "portable"), (3, 64, KERNELS[0]), (1, 32, KERNELS[1 % len(KERNELS)]),
+                                (2, 32, KERNELS[-1])]:
         out, stats = render(cam, [obj], threads=threads, tile_size=tile, simd=simd, shading=HEAVY_SHADING)
         for k in ref_passes:
             assert ref_passes[k].tobytes() == out[k].tobytes(), (k, threads, tile, simd)
