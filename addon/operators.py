@@ -119,6 +119,15 @@ def redraw_views(context):
             area.tag_redraw()
 
 
+def fractal_edited(context, props):
+    """After an operator changed a fractal's collections (maps, fold planes, hybrid entries):
+    Python's writes tag nothing, so tag the object for the depsgraph (F12 and the Rendered viewport
+    read its evaluated copy, which kept the old items) and redraw the views."""
+    props.id_data.update_tag()
+    redraw_views(context)
+    return {'FINISHED'}
+
+
 class PresetMenu:
     """What the fractal and look preset popovers (and menus) share: the bundled presets first,
     their remove button greyed out (they ship with the extension), then the user's own, each with
@@ -954,7 +963,7 @@ class UNBOUND_OT_ifs_shape(IFSOperator, bpy.types.Operator):
 
     def execute(self, context):
         set_ifs_maps(context.object.unbound, self.shape)
-        return {'FINISHED'}
+        return fractal_edited(context, context.object.unbound)
 
 
 def add_list_item(op, props, items, active, limit, what, fields):
@@ -971,7 +980,7 @@ def add_list_item(op, props, items, active, limit, what, fields):
         for field in fields:
             setattr(item, field, getattr(source, field))
     setattr(props, active, len(collection) - 1)
-    return {'FINISHED'}
+    return fractal_edited(bpy.context, props)
 
 
 def remove_list_item(props, items, active):
@@ -981,7 +990,7 @@ def remove_list_item(props, items, active):
         return {'CANCELLED'}
     collection.remove(index)
     setattr(props, active, max(0, min(index, len(collection) - 1)))
-    return {'FINISHED'}
+    return fractal_edited(bpy.context, props)
 
 
 class UNBOUND_OT_ifs_map_add(IFSOperator, bpy.types.Operator):
@@ -1020,7 +1029,7 @@ class UNBOUND_OT_kifs_shape(KIFSOperator, bpy.types.Operator):
 
     def execute(self, context):
         set_kifs_shape(context.object.unbound, self.shape)
-        return {'FINISHED'}
+        return fractal_edited(context, context.object.unbound)
 
 
 class UNBOUND_OT_kifs_plane_add(KIFSOperator, bpy.types.Operator):

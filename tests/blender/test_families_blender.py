@@ -41,10 +41,12 @@ def test_curve_path(run_bpy):
 
 
 def test_ifs_map_operators_presets_and_errors(run_bpy):
-    """The shape, add and remove operators edit the maps; a saved preset restores the maps (a
-    collection) on another IFS; an IFS without maps is reported, not raised."""
+    """The shape, add and remove operators edit the maps, and the depsgraph's copy (what F12 and the
+    Rendered viewport read) follows at once; a saved preset restores the maps (a collection) on
+    another IFS; an IFS without maps is reported, not raised."""
     r = run_bpy("families.ifs_map_operators_presets_and_errors")
     assert r["counts"] == [4, 20, 21, 4]
+    assert r["evaluated"] == r["counts"]
     assert r["ops"] == ["FINISHED", "FINISHED"]
     np.testing.assert_allclose(r["restored"], r["saved"], atol=1e-6)
     assert "an IFS needs at least one map" in r["outcome"] and "fractal '" in r["outcome"]

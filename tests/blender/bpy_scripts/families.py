@@ -117,11 +117,20 @@ def ifs_map_operators_presets_and_errors(S, mod):
     S.add_camera(scene, location=(-2.6, -4.4, 2.4))
     bpy.ops.object.unbound_fractal_add(kind='IFS', use_cursor=False)
     u = bpy.context.object.unbound
+
+    def evaluated_maps():
+        """The maps F12 and the Rendered viewport read: the depsgraph's copy of the object."""
+        ob = bpy.context.object
+        return len(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).unbound.ifs_maps)
+
     counts = [len(u.ifs_maps)]
+    evaluated = [evaluated_maps()]
     bpy.ops.object.unbound_ifs_shape(shape='MENGER')
     counts.append(len(u.ifs_maps))
+    evaluated.append(evaluated_maps())
     bpy.ops.object.unbound_ifs_map_add()
     counts.append(len(u.ifs_maps))
+    evaluated.append(evaluated_maps())
     u.ifs_maps[-1].location = (0.1, 0.2, 0.3)
     u.ifs_maps[-1].scale = (0.2, 0.25, -0.3)
     saved = [tuple(m.location) + tuple(m.rotation) + tuple(m.scale) for m in u.ifs_maps]
@@ -135,6 +144,7 @@ def ifs_map_operators_presets_and_errors(S, mod):
     bpy.ops.object.unbound_ifs_map_remove()
     bpy.ops.object.unbound_ifs_shape(shape='KOCH')
     counts.append(len(v.ifs_maps))
+    evaluated.append(evaluated_maps())
     while len(v.ifs_maps):
         bpy.ops.object.unbound_ifs_map_remove()
     try:
@@ -142,4 +152,4 @@ def ifs_map_operators_presets_and_errors(S, mod):
         outcome = "finished"
     except RuntimeError as exc:
         outcome = str(exc)
-    S.report(counts=counts, outcome=outcome, saved=saved, restored=restored, ops=sorted(status) + sorted(run))
+    S.report(counts=counts, evaluated=evaluated, outcome=outcome, saved=saved, restored=restored, ops=sorted(status) + sorted(run))
