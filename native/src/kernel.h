@@ -561,27 +561,34 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
 
 #include "world.h"
 
-/* Writes (sample 0) or accumulates (later samples) one pass value; the last sample divides by
- * the sample count. Data passes (depth, normal, position, ...) come from sample 0 alone: the
- * pixel centre, as with one sample. */
+/* Writes (sample 0) or accumulates (later samples) one pass's values of a packet's n pixels, a
+ * run of the film's row from pixel index idx on: v[c][l] is channel c of lane l. The last sample
+ * divides by the sample count. Data passes (depth, normal, position, ...) come from sample 0
+ * alone: the pixel centre, as with one sample. Always inlined with a constant channel count, so
+ * that a pass is a run of stores, not a call per pixel (issue 21: the calls, each testing its
+ * buffer, kind and sample, were a third of the shading phase's own time). */
 typedef enum { PASS_DATA = 0, PASS_AVERAGED = 1 } pass_kind;
 
-static inline void put(float *buf, size_t idx, int chans, const float *v, int sample, int samples, pass_kind kind)
+static inline __attribute__((always_inline)) void put_lanes(float *restrict buf, size_t idx, int chans, int n,
+                                                            const float v[][UB_LANES], int sample, int samples,
+                                                            pass_kind kind)
 {
-    if (!buf)
+    if (!buf || (kind == PASS_DATA && sample != 0))
         return;
-    float *p = buf + idx * (size_t)chans;
-    if (kind == PASS_DATA) {
-        if (sample == 0)
-            memcpy(p, v, (size_t)chans * sizeof(float));
+    float *restrict p = buf + idx * (size_t)chans;
+    if (sample == 0) {
+        for (int l = 0; l < n; l++)
+            for (int c = 0; c < chans; c++)
+                p[l * chans + c] = v[c][l];
         return;
     }
-    for (int c = 0; c < chans; c++) {
-        float acc = sample == 0 ? v[c] : p[c] + v[c];
-        if (sample == samples - 1 && samples > 1)
-            acc *= 1.0f / (float)samples;
-        p[c] = acc;
-    }
+    const int last = sample == samples - 1; /* sample > 0 here, so samples > 1 */
+    const float scale = 1.0f / (float)samples;
+    for (int l = 0; l < n; l++)
+        for (int c = 0; c < chans; c++) {
+            float acc = p[l * chans + c] + v[c][l];
+            p[l * chans + c] = last ? acc * scale : acc;
+        }
 }
 
 /* One packet's paths through its bounces: radiance L += W * (local light), W the path's
@@ -898,80 +905,125 @@ static void to_camera_space(const ub_camera *cam, const float n[3], float out[3]
 }
 
 /* Every pass of the packet's n pixels at film row y, columns x.. (sample `sample`); counts the
- * camera rays that ran out of steps. */
+ * camera rays that ran out of steps. Each pass that is on is computed for all lanes at once (loops
+ * the compiler vectorises), then written as a run; passes that are off cost nothing. */
 static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, const ub_paths *ps,
                          ub_counters *cnt)
 {
     const ub_camera *cam = sc->camera;
     const ub_film *film = sc->film;
     const ub_shading *sh = sc->shading;
-    const float glow_scale = 1.0f / 64.0f;
+    float *const *pass = film->pass;
     const int S = sh->samples;
-    for (int l = 0; l < n; l++) {
-        size_t idx = (size_t)y * (size_t)film->w + (size_t)(x + l);
-        int hit = ps->primary_obj[l] != UB_HIT_NONE;
-        int unseen = (ps->unseen >> l) & 1;
-        float g = sh->glow_strength > 0.0f ? sh->glow_strength * (1.0f - ub_expf(-ps->primary_steps[l] * glow_scale))
-                                           : 0.0f;
-        float glow[3] = {g * sh->glow_color[0], g * sh->glow_color[1], g * sh->glow_color[2]};
-        /* Outside a panoramic camera's lens Cycles traces nothing and shows opaque black (with a
-         * transparent film too): no background there. */
-        float rgba[4] = {ps->L[0][l] + glow[0], ps->L[1][l] + glow[1], ps->L[2][l] + glow[2],
-                         hit || unseen ? 1.0f : film->background[3]};
-        float alpha = hit ? 1.0f : 0.0f, zero3[3] = {0, 0, 0};
-        if (hit && ps->coverage[l] < 1.0f) { /* a material's alpha: the background's share shows */
-            alpha = ps->coverage[l];
-            rgba[3] = alpha + (1.0f - alpha) * film->background[3];
+    const size_t idx = (size_t)y * (size_t)film->w + (size_t)x;
+    int hit[UB_LANES];
+    for (int l = 0; l < UB_LANES; l++)
+        hit[l] = ps->primary_obj[l] != UB_HIT_NONE;
+    /* Lanes outside a panoramic camera's lens were not traced: never out of steps. */
+    float out_of_steps[1][UB_LANES];
+    for (int l = 0; l < UB_LANES; l++)
+        out_of_steps[0][l] = ps->primary_out_of_steps[l] && !((ps->unseen >> l) & 1) ? 1.0f : 0.0f;
+    for (int l = 0; l < n; l++)
+        cnt->out_of_steps += out_of_steps[0][l] > 0.0f;
+    put_lanes(pass[UB_PASS_MAX_STEPS], idx, 1, n, out_of_steps, sample, S, PASS_AVERAGED);
+
+    float glow[3][UB_LANES];
+    if (pass[UB_PASS_COMBINED] || pass[UB_PASS_GLOW]) {
+        const float glow_scale = 1.0f / 64.0f;
+        for (int l = 0; l < UB_LANES; l++) {
+            float g = sh->glow_strength > 0.0f
+                        ? sh->glow_strength * (1.0f - ub_expf(-ps->primary_steps[l] * glow_scale))
+                        : 0.0f;
+            for (int i = 0; i < 3; i++)
+                glow[i][l] = g * sh->glow_color[i];
         }
-        /* Depth: along the view axis, or for panoramic cameras the distance from the camera
-         * (Cycles' camera_z_depth). */
-        double depth = 0.0;
-        float normal[3], pos[3];
-        for (int i = 0; i < 3; i++) {
-            double rel = ps->pos0[i][l] - cam->position[i];
-            depth += cam->panorama == UB_PANORAMA_NONE ? rel * cam->forward[i] : rel * rel;
-            normal[i] = ps->nrm0[i][l];
-            pos[i] = (float)ps->pos0[i][l];
+        put_lanes(pass[UB_PASS_GLOW], idx, 3, n, glow, sample, S, PASS_AVERAGED);
+    }
+    if (pass[UB_PASS_COMBINED] || pass[UB_PASS_ALPHA]) {
+        float rgba[4][UB_LANES], alpha[1][UB_LANES];
+        const float bg_alpha = film->background[3];
+        for (int l = 0; l < UB_LANES; l++) {
+            /* Outside a panoramic camera's lens Cycles traces nothing and shows opaque black (with
+             * a transparent film too): no background there. A material's alpha: the background's
+             * share shows. */
+            int unseen = (ps->unseen >> l) & 1, covered = hit[l] && ps->coverage[l] < 1.0f;
+            float a = covered ? ps->coverage[l] : (hit[l] ? 1.0f : 0.0f);
+            alpha[0][l] = a;
+            rgba[3][l] = covered ? a + (1.0f - a) * bg_alpha : (hit[l] || unseen ? 1.0f : bg_alpha);
         }
-        if (cam->panorama != UB_PANORAMA_NONE)
-            depth = sqrt(depth);
-        float depthf = hit ? (float)depth : UB_BACKGROUND_DEPTH;
-        float iters = hit ? ps->primary_iters[l] : 0.0f, dist = hit ? ps->primary_dist[l] : 0.0f;
-        float refl[3] = {ps->R[0][l], ps->R[1][l], ps->R[2][l]};
-        float dif[3] = {ps->pass_diffuse[0][l], ps->pass_diffuse[1][l], ps->pass_diffuse[2][l]};
-        float amb[3] = {ps->pass_ambient[0][l], ps->pass_ambient[1][l], ps->pass_ambient[2][l]};
-        float steps = ps->primary_steps[l], ao = ps->pass_ao[l], shadow = ps->pass_shadow[l];
-        float trap = ps->pass_trap[l];
-        /* Lanes outside a panoramic lens were not traced: never out of steps. */
-        float out_of_steps = ps->primary_out_of_steps[l] && !unseen ? 1.0f : 0.0f;
-        cnt->out_of_steps += out_of_steps > 0.0f;
-        put(film->pass[UB_PASS_COMBINED], idx, 4, rgba, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_ALPHA], idx, 1, &alpha, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_DEPTH], idx, 1, &depthf, sample, S, PASS_DATA);
-        put(film->pass[UB_PASS_NORMAL], idx, 3, hit ? normal : zero3, sample, S, PASS_DATA);
-        put(film->pass[UB_PASS_POSITION], idx, 3, hit ? pos : zero3, sample, S, PASS_DATA);
-        put(film->pass[UB_PASS_ITERATIONS], idx, 1, &iters, sample, S, PASS_DATA);
-        put(film->pass[UB_PASS_STEPS], idx, 1, &steps, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_DISTANCE], idx, 1, &dist, sample, S, PASS_DATA);
-        put(film->pass[UB_PASS_AO], idx, 1, &ao, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_SHADOW], idx, 1, &shadow, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_DIFFUSE], idx, 3, dif, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_AMBIENT], idx, 3, amb, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_REFLECTION], idx, 3, refl, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_ORBIT_TRAP], idx, 1, &trap, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_GLOW], idx, 3, glow, sample, S, PASS_AVERAGED);
-        put(film->pass[UB_PASS_MAX_STEPS], idx, 1, &out_of_steps, sample, S, PASS_AVERAGED);
-        if (film->pass[UB_PASS_DENOISING_ALBEDO]) {
-            float albedo[3] = {ps->albedo0[0][l], ps->albedo0[1][l], ps->albedo0[2][l]};
-            put(film->pass[UB_PASS_DENOISING_ALBEDO], idx, 3, hit ? albedo : zero3, sample, S, PASS_AVERAGED);
+        if (pass[UB_PASS_COMBINED]) {
+            for (int i = 0; i < 3; i++)
+                for (int l = 0; l < UB_LANES; l++)
+                    rgba[i][l] = ps->L[i][l] + glow[i][l];
+            put_lanes(pass[UB_PASS_COMBINED], idx, 4, n, rgba, sample, S, PASS_AVERAGED);
         }
-        if (film->pass[UB_PASS_DENOISING_NORMAL]) {
+        put_lanes(pass[UB_PASS_ALPHA], idx, 1, n, alpha, sample, S, PASS_AVERAGED);
+    }
+    if (pass[UB_PASS_DEPTH] && sample == 0) {
+        /* Along the view axis, or for panoramic cameras the distance from the camera (Cycles'
+         * camera_z_depth). */
+        float depth[1][UB_LANES];
+        const int panoramic = cam->panorama != UB_PANORAMA_NONE;
+        for (int l = 0; l < UB_LANES; l++) {
+            double d = 0.0;
+            for (int i = 0; i < 3; i++) {
+                double rel = ps->pos0[i][l] - cam->position[i];
+                d += panoramic ? rel * rel : rel * cam->forward[i];
+            }
+            if (panoramic)
+                d = sqrt(d);
+            depth[0][l] = hit[l] ? (float)d : UB_BACKGROUND_DEPTH;
+        }
+        put_lanes(pass[UB_PASS_DEPTH], idx, 1, n, depth, sample, S, PASS_DATA);
+    }
+    /* The first hit's data, zero where the camera ray missed. */
+    float v[3][UB_LANES];
+    if (pass[UB_PASS_NORMAL] && sample == 0) {
+        for (int i = 0; i < 3; i++)
+            for (int l = 0; l < UB_LANES; l++)
+                v[i][l] = hit[l] ? ps->nrm0[i][l] : 0.0f;
+        put_lanes(pass[UB_PASS_NORMAL], idx, 3, n, v, sample, S, PASS_DATA);
+    }
+    if (pass[UB_PASS_POSITION] && sample == 0) {
+        for (int i = 0; i < 3; i++)
+            for (int l = 0; l < UB_LANES; l++)
+                v[i][l] = hit[l] ? (float)ps->pos0[i][l] : 0.0f;
+        put_lanes(pass[UB_PASS_POSITION], idx, 3, n, v, sample, S, PASS_DATA);
+    }
+    if (pass[UB_PASS_ITERATIONS] && sample == 0) {
+        for (int l = 0; l < UB_LANES; l++)
+            v[0][l] = hit[l] ? ps->primary_iters[l] : 0.0f;
+        put_lanes(pass[UB_PASS_ITERATIONS], idx, 1, n, v, sample, S, PASS_DATA);
+    }
+    if (pass[UB_PASS_DISTANCE] && sample == 0) {
+        for (int l = 0; l < UB_LANES; l++)
+            v[0][l] = hit[l] ? ps->primary_dist[l] : 0.0f;
+        put_lanes(pass[UB_PASS_DISTANCE], idx, 1, n, v, sample, S, PASS_DATA);
+    }
+    if (pass[UB_PASS_DENOISING_ALBEDO]) {
+        for (int i = 0; i < 3; i++)
+            for (int l = 0; l < UB_LANES; l++)
+                v[i][l] = hit[l] ? ps->albedo0[i][l] : 0.0f;
+        put_lanes(pass[UB_PASS_DENOISING_ALBEDO], idx, 3, n, v, sample, S, PASS_AVERAGED);
+    }
+    if (pass[UB_PASS_DENOISING_NORMAL]) {
+        for (int l = 0; l < UB_LANES; l++) {
+            const float normal[3] = {ps->nrm0[0][l], ps->nrm0[1][l], ps->nrm0[2][l]};
             float camera_normal[3];
             to_camera_space(cam, normal, camera_normal);
-            put(film->pass[UB_PASS_DENOISING_NORMAL], idx, 3, hit ? camera_normal : zero3, sample, S,
-                PASS_AVERAGED);
+            for (int i = 0; i < 3; i++)
+                v[i][l] = hit[l] ? camera_normal[i] : 0.0f;
         }
+        put_lanes(pass[UB_PASS_DENOISING_NORMAL], idx, 3, n, v, sample, S, PASS_AVERAGED);
     }
+    /* The rest as the paths left them. */
+    put_lanes(pass[UB_PASS_STEPS], idx, 1, n, &ps->primary_steps, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_AO], idx, 1, n, &ps->pass_ao, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_SHADOW], idx, 1, n, &ps->pass_shadow, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_DIFFUSE], idx, 3, n, ps->pass_diffuse, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_AMBIENT], idx, 3, n, ps->pass_ambient, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_REFLECTION], idx, 3, n, ps->R, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_ORBIT_TRAP], idx, 1, n, &ps->pass_trap, sample, S, PASS_AVERAGED);
 }
 
 /* Phase 1 over one tile: each packet's paths bounce by bounce (the camera rays' hits come from
