@@ -6,7 +6,8 @@
  * A render runs, for each anti-aliasing sample, two phases over the film: phase 0 marches the
  * camera rays into a hit buffer (the r^2 memory of the paper, plus a one-pixel apron), phase 1
  * shades every hit (normals, lights, shadows, AO, reflections, fog, glow) and accumulates the
- * passes. The Z-buffer normals of eq. 12-14 read the neighbours' hits from the buffer. */
+ * passes. The Z-buffer normals of eq. 12-14 read the neighbours' hits from the buffer; without
+ * them one phase marches and shades each packet in turn (UB_PHASE_TRACE_AND_SHADE). */
 #ifndef KERNEL_SUFFIX
 #error "define KERNEL_SUFFIX and include a simd_*.h header before kernel.h"
 #endif
@@ -139,15 +140,41 @@ static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, 
     return seen;
 }
 
+/* The camera rays of the n pixels from (x, y) on the hit buffer's grid, marched (from their
+ * blocks' shared first steps): their hits into tr. Returns the lanes that see the scene. */
+static int primary_packet(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int x, int y, int n,
+                          ub_packet_rays *pr, ub_trace_result *tr, ub_counters *cnt)
+{
+    const ub_hit_buffer *hb = sc->hits;
+    int px = hb->x0 + hb->step * x, py = hb->y0 + hb->step * y;
+    int seen = camera_packet(sc->camera, px, py, hb->step, n, sp, 1, pr);
+    if (sc->cones) /* shared first steps: each ray starts where its block's cone is empty */
+        cone_start_rays(sc, px, py, hb->step, n, pr);
+    /* Lanes outside a panoramic camera's lens come back as misses (UB_HIT_NONE). */
+    trace(sc, dps, pr, ((1 << n) - 1) & seen, sc->shading->sea ? UB_TRACE_SEA : 0, NULL, tr, cnt);
+    uint64_t steps = 0;
+    for (int l = 0; l < n; l++)
+        steps += (uint64_t)tr->steps[l];
+    cnt->rays += (uint64_t)n;
+    cnt->steps += steps;
+    return seen;
+}
+
+/* The de_params of the scene's objects, for one tile. */
+static void tile_de_params(const ub_scene *sc, ub_de_params dps[UB_MAX_OBJECTS])
+{
+    for (int k = 0; k < sc->object_count; k++) {
+        de_params(&sc->objects[k], sc->camera, &dps[k]);
+        dps[k].cancel = sc->cancel;
+    }
+}
+
 static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1,
                                 ub_counters *cnt)
 {
     const ub_hit_buffer *hb = sc->hits;
     ub_de_params dps[UB_MAX_OBJECTS];
-    for (int k = 0; k < sc->object_count; k++) {
-        de_params(&sc->objects[k], sc->camera, &dps[k]);
-        dps[k].cancel = sc->cancel;
-    }
+    tile_de_params(sc, dps);
     const sample_point sp = sample_point_of(sample);
     if (sc->cones)
         cone_fill(sc, dps, tx0, ty0, tx1, ty1, cnt);
@@ -157,24 +184,12 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
                 return;
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             ub_packet_rays pr;
-            int px = hb->x0 + hb->step * x, py = hb->y0 + hb->step * y;
-            int seen = camera_packet(sc->camera, px, py, hb->step, n, &sp, 1, &pr);
-            if (sc->cones) /* shared first steps: each ray starts where its block's cone is empty */
-                cone_start_rays(sc, px, py, hb->step, n, &pr);
             ub_trace_result tr;
-            /* Lanes outside a panoramic camera's lens come back as misses (UB_HIT_NONE). */
-            trace(sc, dps, &pr, ((1 << n) - 1) & seen, sc->shading->sea ? UB_TRACE_SEA : 0, NULL, &tr, cnt);
-            for (int l = 0; l < n; l++) {
-                ub_hit *h = &hb->hits[(size_t)y * hb->w + x + l];
-                h->t = tr.t[l];
-                h->iterations = tr.iters[l];
-                h->distance = tr.dist[l];
-                h->steps = tr.steps[l];
-                h->object = (int16_t)tr.object[l];
-                h->out_of_steps = (int16_t)tr.out_of_steps[l];
-                cnt->rays++;
-                cnt->steps += (uint64_t)tr.steps[l];
-            }
+            primary_packet(sc, dps, &sp, x, y, n, &pr, &tr, cnt);
+            ub_hit *h = &hb->hits[(size_t)y * hb->w + x];
+            for (int l = 0; l < n; l++)
+                h[l] = (ub_hit){tr.t[l], tr.iters[l], tr.dist[l], tr.steps[l], (int16_t)tr.object[l],
+                                (int16_t)tr.out_of_steps[l]};
         }
     }
 }
@@ -613,8 +628,9 @@ typedef struct {
     int unseen;             /* lanes outside a panoramic camera's lens */
 } ub_paths;
 
-/* The camera rays' hits of packet (x, y) from the hit buffer into tr, and the empty paths. */
-static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_result *tr, ub_paths *ps)
+/* The camera rays' hits of packet (x, y) from the hit buffer into tr, as trace gave them;
+ * padding lanes repeat the last real pixel. */
+static void buffered_hits(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_result *tr)
 {
     for (int l = 0; l < UB_LANES; l++) {
         int lx = x + (l < n ? l : n - 1);
@@ -625,6 +641,13 @@ static void start_paths(const ub_hit_buffer *hb, int x, int y, int n, ub_trace_r
         tr->steps[l] = h->steps;
         tr->object[l] = h->object;
         tr->out_of_steps[l] = h->out_of_steps;
+    }
+}
+
+/* The empty paths of a packet whose camera rays found tr. */
+static void start_paths(const ub_trace_result *tr, ub_paths *ps)
+{
+    for (int l = 0; l < UB_LANES; l++) {
         ps->W[l] = 1.0f;
         ps->Wr[l] = 0.0f;
         ps->pass_ao[l] = 1.0f;
@@ -1026,24 +1049,26 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
     put_lanes(pass[UB_PASS_ORBIT_TRAP], idx, 1, n, &ps->pass_trap, sample, S, PASS_AVERAGED);
 }
 
-/* Phase 1 over one tile: each packet's paths bounce by bounce (the camera rays' hits come from
- * the hit buffer), then its passes. */
-static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1, int ty1, ub_counters *cnt)
+/* Phase 1 over one tile: each packet's paths bounce by bounce, then its passes. The camera rays'
+ * hits come from the hit buffer, or with `trace_first` (UB_PHASE_TRACE_AND_SHADE) from marching
+ * them right here: the same hits (the buffer keeps trace's values exactly), without the round trip
+ * of 20 bytes a pixel through memory and with one camera ray per pixel instead of two. */
+static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0, int ty0, int tx1, int ty1,
+                       ub_counters *cnt)
 {
     const ub_camera *cam = sc->camera;
     const ub_film *film = sc->film;
     const ub_shading *sh = sc->shading;
     ub_de_params dps[UB_MAX_OBJECTS];
-    for (int k = 0; k < sc->object_count; k++) {
-        de_params(&sc->objects[k], cam, &dps[k]);
-        dps[k].cancel = sc->cancel;
-    }
+    tile_de_params(sc, dps);
     const int want_trap = film->pass[UB_PASS_ORBIT_TRAP] != NULL;
     /* AO only changes the ambient term: without ambient light it is needed for its pass alone. */
     const int use_ao = sh->ao_strength > 0.0f
                     && ((!sh->gi && (sh->ambient[0] > 0.0f || sh->ambient[1] > 0.0f || sh->ambient[2] > 0.0f))
                         || film->pass[UB_PASS_AO] != NULL);
     const sample_point sp = sample_point_of(sample);
+    if (trace_first && sc->cones)
+        cone_fill(sc, dps, tx0, ty0, tx1, ty1, cnt);
 
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
@@ -1053,9 +1078,26 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
             ub_packet_rays pr;
             ub_trace_result tr;
             ub_paths ps;
-            int seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, &sp,
+            int seen;
+            if (trace_first) {
+                seen = primary_packet(sc, dps, &sp, x, y, n, &pr, &tr, cnt);
+                if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
+                    return;
+                /* Padding lanes repeat the last real pixel, as buffered_hits gives them. */
+                for (int l = n; l < UB_LANES; l++) {
+                    tr.t[l] = tr.t[n - 1];
+                    tr.iters[l] = tr.iters[n - 1];
+                    tr.dist[l] = tr.dist[n - 1];
+                    tr.steps[l] = tr.steps[n - 1];
+                    tr.object[l] = tr.object[n - 1];
+                    tr.out_of_steps[l] = tr.out_of_steps[n - 1];
+                }
+            } else {
+                seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, &sp,
                                      0, &pr);
-            start_paths(sc->hits, x, y, n, &tr, &ps);
+                buffered_hits(sc->hits, x, y, n, &tr);
+            }
+            start_paths(&tr, &ps);
             int alive = ((1 << n) - 1) & seen;
             ps.unseen = ~seen;
             for (int bounce = 0; alive; bounce++) {
@@ -1100,10 +1142,10 @@ static void tile_shade(const ub_scene *sc, int sample, int tx0, int ty0, int tx1
 void UB_ENTRY(ub_render_tile)(const ub_scene *sc, int phase, int sample, int tx0, int ty0, int tx1, int ty1,
                            ub_counters *cnt)
 {
-    if (phase == 0)
+    if (phase == UB_PHASE_TRACE)
         tile_primary(sc, sample, tx0, ty0, tx1, ty1, cnt);
     else
-        tile_shade(sc, sample, tx0, ty0, tx1, ty1, cnt);
+        tile_shade(sc, phase == UB_PHASE_TRACE_AND_SHADE, sample, tx0, ty0, tx1, ty1, cnt);
 }
 
 void UB_ENTRY(ub_estimate)(const ub_object *o, const float *xyz, size_t count, float *estimate, float *iterations)

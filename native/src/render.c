@@ -83,7 +83,7 @@ typedef struct {
     int busy;         /* guarded by lock: workers not yet done with the current job */
     /* The current job, written by the calling thread while no worker is busy. */
     int phase, sample;
-    int width, height; /* region tiled: the hit buffer (phase 0) or the film (phase 1) */
+    int width, height; /* region tiled: the hit buffer (UB_PHASE_TRACE) or the film */
     int tile, tiles_x, tile_count;
     int next_tile;  /* atomic: next tile to hand out */
     int tiles_done; /* atomic */
@@ -337,7 +337,12 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     hb.h = film->h + bottom + top;
     hb.apron_x = left;
     hb.apron_y = bottom;
-    hb.hits = hit_buffer_take((size_t)hb.w * (size_t)hb.h);
+    /* Only the Z-buffer normals read other pixels' hits: without them each packet is shaded right
+     * after its camera rays are marched, in one phase, and no hit buffer is needed (issue 21: the
+     * buffer's 20 bytes a pixel, written and read back from memory, and a second camera ray per
+     * pixel were a tenth of a render). */
+    const int phases = apron ? 2 : 1;
+    hb.hits = apron ? hit_buffer_take((size_t)hb.w * (size_t)hb.h) : NULL;
     ub_scene scene = *scene_in;
     scene.hits = &hb;
     ub_cone_cache cones;
@@ -346,7 +351,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
     ub_thread_counters *per_thread = calloc((size_t)threads, sizeof(ub_thread_counters));
     ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
-    if (!per_thread || !workers || !hb.hits || !cones_ok) {
+    if (!per_thread || !workers || (apron && !hb.hits) || !cones_ok) {
         free(per_thread);
         free(workers);
         hit_buffer_give_back(hb.hits);
@@ -366,12 +371,13 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     int first = opt->sample_count > 0 ? opt->first_sample : 0;
     int count = opt->sample_count > 0 ? opt->sample_count : scene.shading->samples;
     for (int s = first; s < first + count && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); s++) {
-        for (int phase = 0; phase < 2 && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); phase++) {
-            pool.phase = phase;
+        for (int phase = 0; phase < phases && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); phase++) {
+            pool.phase = phases == 1 ? UB_PHASE_TRACE_AND_SHADE : phase;
             pool.sample = s;
-            pool.width = phase == 0 ? hb.w : film->w;
-            pool.height = phase == 0 ? hb.h : film->h;
-            run_job(&pool, started, opt, 2 * (s - first) + phase, 2 * count);
+            /* One phase: the hit buffer's grid is the film's. */
+            pool.width = pool.phase == UB_PHASE_TRACE ? hb.w : film->w;
+            pool.height = pool.phase == UB_PHASE_TRACE ? hb.h : film->h;
+            run_job(&pool, started, opt, phases * (s - first) + phase, phases * count);
         }
     }
     pool_stop(&pool, workers, started);

@@ -367,7 +367,7 @@ typedef struct {
      * window's edge equal the full render's. Film pixel (x, y) is buffer pixel
      * (x + apron_x, y + apron_y): apron_x is 1 when the buffer has a column left of the film. */
     int x0, y0, w, h, step, apron_x, apron_y;
-    ub_hit *hits;
+    ub_hit *hits; /* NULL when the render traces and shades in one phase (its grid is still used) */
 } ub_hit_buffer;
 
 /* The World as a light and a background (world.c, world.h): an equirectangular map in the
@@ -433,7 +433,10 @@ void ub_lens_sample(int sample, int px, int py, double uv[2]);
 
 /* One rectangle rendered by one thread, in packets of UB_LANES pixels along rows.
  * Phase 0 traces camera rays of `sample` into the hit buffer (coordinates relative to it);
- * phase 1 shades them and accumulates the film (coordinates relative to the film window). */
+ * phase 1 shades them and accumulates the film (coordinates relative to the film window).
+ * Where no pixel reads its neighbours' hits (no Z-buffer normals), UB_PHASE_TRACE_AND_SHADE
+ * does both, packet by packet, over the film (the hit buffer's grid then), without the buffer. */
+enum { UB_PHASE_TRACE = 0, UB_PHASE_SHADE = 1, UB_PHASE_TRACE_AND_SHADE = 2 };
 typedef void (*ub_tile_kernel)(const ub_scene *scene, int phase, int sample, int tx0, int ty0, int tx1, int ty1,
                                ub_counters *counters);
 
