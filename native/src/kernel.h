@@ -592,9 +592,15 @@ static inline __attribute__((always_inline)) void put_lanes(float *restrict buf,
         return;
     float *restrict p = buf + idx * (size_t)chans;
     if (sample == 0) {
-        for (int l = 0; l < n; l++)
-            for (int c = 0; c < chans; c++)
-                p[l * chans + c] = v[c][l];
+        /* A whole packet with a constant count: inline vector stores, not a call to memcpy. */
+        if (n == UB_LANES)
+            for (int l = 0; l < UB_LANES; l++)
+                for (int c = 0; c < chans; c++)
+                    p[l * chans + c] = v[c][l];
+        else
+            for (int l = 0; l < n; l++)
+                for (int c = 0; c < chans; c++)
+                    p[l * chans + c] = v[c][l];
         return;
     }
     const int last = sample == samples - 1; /* sample > 0 here, so samples > 1 */
