@@ -992,17 +992,20 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
         /* Along the view axis, or for panoramic cameras the distance from the camera (Cycles'
          * camera_z_depth). */
         float depth[1][UB_LANES];
-        const int panoramic = cam->panorama != UB_PANORAMA_NONE;
-        for (int l = 0; l < UB_LANES; l++) {
-            double d = 0.0;
-            for (int i = 0; i < 3; i++) {
-                double rel = ps->pos0[i][l] - cam->position[i];
-                d += panoramic ? rel * rel : rel * cam->forward[i];
+        double d[UB_LANES];
+        const double *c = cam->position, *f = cam->forward;
+        /* Two loops, each without branches: vector code. */
+        if (cam->panorama == UB_PANORAMA_NONE)
+            for (int l = 0; l < UB_LANES; l++)
+                d[l] = 0.0 + (ps->pos0[0][l] - c[0]) * f[0] + (ps->pos0[1][l] - c[1]) * f[1]
+                     + (ps->pos0[2][l] - c[2]) * f[2];
+        else
+            for (int l = 0; l < UB_LANES; l++) {
+                double r[3] = {ps->pos0[0][l] - c[0], ps->pos0[1][l] - c[1], ps->pos0[2][l] - c[2]};
+                d[l] = sqrt(0.0 + r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
             }
-            if (panoramic)
-                d = sqrt(d);
-            depth[0][l] = hit[l] ? (float)d : UB_BACKGROUND_DEPTH;
-        }
+        for (int l = 0; l < UB_LANES; l++)
+            depth[0][l] = hit[l] ? (float)d[l] : UB_BACKGROUND_DEPTH;
         put_lanes(pass[UB_PASS_DEPTH], idx, 1, n, depth, sample, S, PASS_DATA);
     }
     /* The first hit's data, zero where the camera ray missed. */
