@@ -1,0 +1,76 @@
+"""A/B of two builds of the native core, interleaved: each round renders with build A, then with
+build B, each in a fresh subprocess (so the two never share a process or its caches), and reads the
+process CPU seconds of one render (after one warm-up render into the same buffers). Reports the
+medians (min-max) per build, the ratio A/B of the medians, and a digest of every pass per build:
+a change meant to keep the pixels must show the same digest.
+
+Scenes (bench_core.py's peer scene, quaternion Julia set mu = -0.2+0.8i, 16 iterations, camera
+(-2,-2,1) looking at the origin):
+  peer  1280x1024, passes combined, alpha, depth, the default shading (the axle light);
+  all   640x512, every pass, bench_effects.py's "everything" row (a soft sun with shadows, AO,
+        reflections and the sea, fog, glow, 4 samples).
+
+A build is a directory holding the unpacked wheel (`build/wheel` after `make wheel`; copy it
+aside before rebuilding the other):
+
+    python bench/bench_ab.py OLD/wheel NEW/wheel [--scene peer|all] [--rounds 5] [--threads 1]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+
+CHILD = r'''
+import sys, time, math, hashlib
+sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, sys.argv[2])
+import numpy as np, unbound_core as uc
+import bench_effects as fx
+scene, threads = sys.argv[3], int(sys.argv[4])
+W, H = (1280, 1024) if scene == "peer" else (640, 512)
+cam = dict(matrix=uc.look_at((-2.0, -2.0, 1.0), (0, 0, 0), (0, 0, 1)),
+           projection=uc.perspective(2 * math.atan(0.5), W / H, 0.1, 100.0), width=W, height=H)
+obj = dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=16, bailout=4.0)
+names, shading = ("combined", "alpha", "depth"), {}
+if scene == "all":
+    _, _, over, shading = [c for c in fx.CASES if c[0] == "all"][0]
+    obj, names = dict(obj, **over), uc.PASSES
+p = {n: np.zeros((H, W, uc.PASS_CHANNELS[n]), np.float32) for n in names}
+uc.render(cam, [obj], p, shading=shading, threads=threads)
+c0 = time.process_time()
+uc.render(cam, [obj], p, shading=shading, threads=threads)
+c = time.process_time() - c0
+print(c, hashlib.sha256(b"".join(p[n].tobytes() for n in sorted(p))).hexdigest()[:16])
+'''
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("build_a")
+    ap.add_argument("build_b")
+    ap.add_argument("--scene", choices=("peer", "all"), default="peer")
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--threads", type=int, default=1)
+    args = ap.parse_args(argv)
+    bench_dir = __file__.rsplit("/", 1)[0] if "/" in __file__ else "."
+    builds = (args.build_a, args.build_b)
+    cpu = {b: [] for b in builds}
+    digest = {}
+    for _ in range(args.rounds):
+        for b in builds:
+            out = subprocess.run([sys.executable, "-c", CHILD, b, bench_dir, args.scene, str(args.threads)],
+                                 capture_output=True, text=True, check=True).stdout.split()
+            cpu[b].append(float(out[0]))
+            digest[b] = out[1]
+    for b in builds:
+        v = cpu[b]
+        print("%s: median %.4f s CPU (%.4f-%.4f), passes %s" % (b, statistics.median(v), min(v), max(v), digest[b]))
+    print("ratio A/B %.3f (%s scene, %d thread(s), %d rounds)%s" % (
+        statistics.median(cpu[builds[0]]) / statistics.median(cpu[builds[1]]), args.scene, args.threads,
+        args.rounds, "" if digest[builds[0]] == digest[builds[1]] else "; THE PASSES DIFFER"))
+
+
+if __name__ == "__main__":
+    main()
