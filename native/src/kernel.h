@@ -699,7 +699,6 @@ static void background_along(const ub_scene *sc, int bounce, const double d[3], 
 static int add_background(const ub_scene *sc, int bounce, int alive, const ub_packet_rays *pr,
                           const ub_trace_result *tr, ub_paths *ps)
 {
-    const ub_film *film = sc->film;
     int hit_lanes = 0;
     for (int l = 0; l < UB_LANES; l++) {
         if (!((alive >> l) & 1))
