@@ -20,37 +20,28 @@ static double now(void)
 #define SUM(ADD) ADD(ADD(ADD(ADD(x0, x1), ADD(x2, x3)), ADD(ADD(x4, x5), ADD(x6, x7))), \
     ADD(ADD(x8, x9), ADD(x10, x11)))
 
-__attribute__((target("avx512f,fma"))) static double peak512(long rounds)
-{
-    CHAINS(__m512, _mm512_set1_ps);
-    const __m512 m = _mm512_set1_ps(0.9999f), a = _mm512_set1_ps(1e-7f);
-    double t0 = now();
-    for (long k = 0; k < rounds; k++) {
-        STEP(_mm512_fmadd_ps);
-        __asm__ volatile("");
+/* One width's peak: LANES floats a vector of type T; the sum of the chains is stored so that the
+ * compiler keeps them. */
+#define PEAK(NAME, TARGET, T, LANES, SET1, FMADD, ADD, STOREU) \
+    __attribute__((target(TARGET))) static double NAME(long rounds) \
+    { \
+        CHAINS(T, SET1); \
+        const T m = SET1(0.9999f), a = SET1(1e-7f); \
+        double t0 = now(); \
+        for (long k = 0; k < rounds; k++) { \
+            STEP(FMADD); \
+            __asm__ volatile(""); \
+        } \
+        double t = now() - t0; \
+        float out[LANES]; \
+        STOREU(out, SUM(ADD)); \
+        volatile float sink = out[0]; \
+        (void)sink; \
+        return rounds * 12.0 * LANES * 2 / t * 1e-9; \
     }
-    double t = now() - t0;
-    volatile float sink = _mm512_reduce_add_ps(SUM(_mm512_add_ps));
-    (void)sink;
-    return rounds * 12.0 * 16 * 2 / t * 1e-9;
-}
 
-__attribute__((target("avx2,fma"))) static double peak256(long rounds)
-{
-    CHAINS(__m256, _mm256_set1_ps);
-    const __m256 m = _mm256_set1_ps(0.9999f), a = _mm256_set1_ps(1e-7f);
-    double t0 = now();
-    for (long k = 0; k < rounds; k++) {
-        STEP(_mm256_fmadd_ps);
-        __asm__ volatile("");
-    }
-    double t = now() - t0;
-    float out[8];
-    _mm256_storeu_ps(out, SUM(_mm256_add_ps));
-    volatile float sink = out[0];
-    (void)sink;
-    return rounds * 12.0 * 8 * 2 / t * 1e-9;
-}
+PEAK(peak512, "avx512f,fma", __m512, 16, _mm512_set1_ps, _mm512_fmadd_ps, _mm512_add_ps, _mm512_storeu_ps)
+PEAK(peak256, "avx2,fma", __m256, 8, _mm256_set1_ps, _mm256_fmadd_ps, _mm256_add_ps, _mm256_storeu_ps)
 
 int main(int argc, char **argv)
 {
