@@ -354,6 +354,13 @@ static inline vf v_abs(vf x)
     return v_max(x, v_sub(v_set1(0.0f), x));
 }
 
+/* |p - u|^2 for the lanes' points p = (x, y, z) and one point u. */
+static inline vf distance2_to(vf x, vf y, vf z, const float u[3])
+{
+    vf dx = v_sub(x, v_set1(u[0])), dy = v_sub(y, v_set1(u[1])), dz = v_sub(z, v_set1(u[2]));
+    return v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)));
+}
+
 /* 3-D IFS with mirror-symmetric pieces (ifs.c, detect_mirror_pieces: the Sierpinski tetrahedron):
  * at each level the nearest leaf ball lies in the piece whose image of the centre is nearest, so
  * the estimate follows that one path, x <- (x - t_i) / s, and ends with its leaf ball's signed
@@ -367,8 +374,7 @@ static inline void de_ifs_mirror(const ub_object *o, vf x, vf y, vf z, const int
     const int m = o->map_count;
     const vf inverse = v_set1(o->mirror_inverse);
     const float *c = o->mirror_root;
-    vf rx = v_sub(x, v_set1(c[0])), ry = v_sub(y, v_set1(c[1])), rz = v_sub(z, v_set1(c[2]));
-    vf root = v_sqrt(v_fma(rx, rx, v_fma(ry, ry, v_mul(rz, rz))));
+    vf root = v_sqrt(distance2_to(x, y, z, c));
     /* Beyond 1e6 radii the root ball's distance is the leaf balls' to float precision (within 2e-6
      * of it), and the path would overflow (detect_mirror_pieces). */
     vm far = v_gt(root, v_set1(1e6f * o->mirror_radius));
@@ -379,8 +385,7 @@ static inline void de_ifs_mirror(const ub_object *o, vf x, vf y, vf z, const int
         vf tx = v_set1(o->mirror_offset[0][0]), ty = v_set1(o->mirror_offset[0][1]), tz = v_set1(o->mirror_offset[0][2]);
         for (int i = 0; i < m; i++) {
             const float *v = o->mirror_center[i], *t = o->mirror_offset[i];
-            vf dx = v_sub(x, v_set1(v[0])), dy = v_sub(y, v_set1(v[1])), dz = v_sub(z, v_set1(v[2]));
-            vf e2 = v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)));
+            vf e2 = distance2_to(x, y, z, v);
             vm closer = v_lt(e2, nearest2); /* ties (and NaN) keep the lower index */
             nearest2 = v_select(closer, e2, nearest2);
             index = v_select(closer, v_set1((float)i), index);
@@ -395,8 +400,7 @@ static inline void de_ifs_mirror(const ub_object *o, vf x, vf y, vf z, const int
         z = v_mul(v_sub(z, tz), inverse);
         scale *= o->mirror_ratio;
     }
-    vf dx = v_sub(x, v_set1(c[0])), dy = v_sub(y, v_set1(c[1])), dz = v_sub(z, v_set1(c[2]));
-    vf leaf = v_sub(v_sqrt(v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)))), v_set1(o->mirror_radius));
+    vf leaf = v_sub(v_sqrt(distance2_to(x, y, z, c)), v_set1(o->mirror_radius));
     *dist = v_select(far, v_sub(root, v_set1(o->mirror_radius)), v_mul(leaf, v_set1(scale)));
     /* As the search: a NaN or infinite point (never a hit) settles at depth 0. */
     vm finite = v_le(v_sub(*dist, *dist), v_set1(0.0f));
@@ -442,14 +446,10 @@ static inline void de_ifs_folded(const ub_object *o, vf x, vf y, vf z, const int
         y = v_min(hi, mid);
         const float *u = o->fold_center[0];
         vf ux = v_set1(u[0]), uy = v_set1(u[1]), uz = v_set1(u[2]);
-        vf dx = v_sub(x, ux), dy = v_sub(y, uy), dz = v_sub(z, uz);
-        vf nearest2 = v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)));
+        vf nearest2 = distance2_to(x, y, z, u);
         for (int i = 1; i < o->fold_count; i++) {
             u = o->fold_center[i];
-            dx = v_sub(x, v_set1(u[0]));
-            dy = v_sub(y, v_set1(u[1]));
-            dz = v_sub(z, v_set1(u[2]));
-            vf e2 = v_fma(dx, dx, v_fma(dy, dy, v_mul(dz, dz)));
+            vf e2 = distance2_to(x, y, z, u);
             vm closer = v_lt(e2, nearest2); /* ties (and NaN) keep the lower index */
             nearest2 = v_select(closer, e2, nearest2);
             ux = v_select(closer, v_set1(u[0]), ux);
