@@ -408,8 +408,11 @@ def _render_frame(engine, depsgraph, times):
                     break
                 done = sample + 1
                 camera_rays += w * h
-                progress.update(index, sample + 1 if done < samples else sample, 0.0 if done < samples else 1.0,
-                                force=True)
+                # Esc between samples too: a quick sample can end before the core's first poll.
+                if progress.update(index, sample + 1 if done < samples else sample, 0.0 if done < samples else 1.0,
+                                   force=True) and done < samples:
+                    cancelled = True  # the samples done are whole: kept
+                    break
                 if done < samples and uploading <= UPDATE_SHARE * (time.perf_counter() - started):
                     # The Image Editor shows the samples done while the next ones render.
                     t0 = time.perf_counter()
