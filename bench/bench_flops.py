@@ -15,7 +15,15 @@ spent on threading); the wall figure needs a quiet machine. Beside it, what the 
 to two busy cores (clock, shared caches, the host): the same 1-thread render in two processes at
 once, their CPU per render against one process alone (`--pair`).
 
-    python bench/bench_flops.py [--repeats 5] [--res 1280x1024] [--pair]
+With --ceiling, what the iteration loop itself reaches: `estimate()` with mu = -1/2 on points near
+its attracting fixed point (1 - sqrt 3) / 2 (no lane ever escapes, so every lane iterates
+max_iterations times, all 16 busy; the orbits converge at the rate 0.73 per step, so no value
+becomes subnormal, which would cost microcode assists the render does not pay),
+at max_iterations 16 and 80; the difference of the two CPU times is 64 iterations per point with
+no per-call cost (the slope). That loop rate is the most the whole render could reach if it did
+nothing but iterate; the render's fraction of it is the share of its time that is useful iteration.
+
+    python bench/bench_flops.py [--repeats 5] [--res 1280x1024] [--pair] [--ceiling]
 """
 from __future__ import annotations
 
@@ -25,6 +33,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -56,7 +65,6 @@ def measured_peaks(kernels):
 def render(width, height, threads, simd):
     cam = bench_core.camera(width, height)
     import numpy as np
-    import time
     passes = {n: np.zeros((height, width, uc.PASS_CHANNELS[n]), np.float32) for n in ("combined", "alpha", "depth")}
     c0, t0 = time.process_time(), time.perf_counter()
     stats = uc.render(cam, [bench_core.OBJECT], passes, threads=threads, simd=simd)
@@ -87,6 +95,26 @@ def pair(kernel, renders=8):
     return alone, together
 
 
+def loop_gflops(kernel, points=1 << 19, low=16, high=80, repeats=5):
+    """GFLOP/s of the iteration loop alone (slope between two iteration counts, every lane busy)."""
+    import numpy as np
+    pts = ((np.random.default_rng(1).random((points, 3)) - 0.5) * 0.4).astype(np.float32)  # |p| < 0.35
+    est, its = np.zeros(points, np.float32), np.zeros(points, np.float32)
+
+    def cpu(max_iterations):
+        obj = dict(mu=(-0.5, 0.0, 0.0, 0.0), max_iterations=max_iterations, bailout=4.0)
+        best = float("inf")
+        for _ in range(repeats):
+            c0 = time.process_time()
+            uc.estimate(obj, pts, est, its, simd=kernel)
+            best = min(best, time.process_time() - c0)
+        assert np.all(its == max_iterations), "a lane escaped: not every lane iterated"
+        return best
+
+    t_low, t_high = cpu(low), cpu(high)
+    return FLOP_PER_ITERATION * points * (high - low) / (t_high - t_low) * 1e-9
+
+
 def med(values):
     return "%.4g (%.4g-%.4g)" % (statistics.median(values), min(values), max(values))
 
@@ -96,6 +124,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--res", default="1280x1024")
     ap.add_argument("--pair", action="store_true", help="also two 1-thread processes at once")
+    ap.add_argument("--ceiling", action="store_true", help="also the iteration loop's own rate")
     args = ap.parse_args()
     width, height = map(int, args.res.split("x"))
     info = uc.cpu_info()
@@ -118,6 +147,11 @@ def main():
         if k in peaks:
             print("  measured FMA peak %.1f GFLOP/s per core: %s %% of it" % (
                 peaks[k], med([100.0 * g / peaks[k] for g in gflops])))
+        if args.ceiling:
+            loop = loop_gflops(k)
+            print("  the iteration loop alone (every lane busy): %.1f GFLOP/s per core%s; the render %s %% of it"
+                  % (loop, " = %.0f %% of the peak" % (100.0 * loop / peaks[k]) if k in peaks else "",
+                     med([100.0 * g / loop for g in gflops])))
         print("  thread scaling 1 -> 2: wall %s x, CPU 2 threads / 1 thread %s" % (
             med([a[1] / b[1] for a, b in zip(one, two)]), med([b[0] / a[0] for a, b in zip(one, two)])))
         if args.pair:
