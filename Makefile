@@ -59,10 +59,11 @@ check-binaries: $(DIST_STAMP)
 # wine in the official Windows CPython; their render digests equal x86-64 Linux's; the linux-x64
 # release zip installed and rendering in bpy 4.2 and in Python 3.13 / bpy 5.2; the farm set-up.
 test-platforms: $(DIST_STAMP) extension
-	UNBOUND_PLATFORM_TESTS=1 $(PY) -m pytest tests/platforms
+	UNBOUND_PLATFORM_TESTS=1 $(PY) -m pytest tests/platforms --durations=10
 
+# --durations: the slowest tests, printed at the end (CI has 90 minutes for all of .ci/run).
 test: extension
-	$(PY) -m pytest tests
+	$(PY) -m pytest tests --durations=25
 
 test-native: wheel
 	$(PY) -m pytest tests/native
