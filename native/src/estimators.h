@@ -107,7 +107,7 @@ static inline vm orbit_step(const ub_de_params *p, const int want, vm active, vf
  * of section 4.1.2 and the Jacobian of f^n along the three slice axes. d(z q)/dx = z dq + dq z
  * for f = z^2 (plus dmu/dx for Mandelbrot), and for z = (a, v), h = (p, w):
  * zh + hz = (2(ap - v.w), 2(aw + pv)) (the cross products cancel). */
-static inline __attribute__((always_inline)) void de_quaternion(const ub_de_params *p, vm lanes, const int mandel, vf a, vf b, vf c, vf d,
+static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mandel, vf a, vf b, vf c, vf d,
                                         const int want, vf *dist, vf *iters, ub_de_extra *x)
 {
     const ub_object *o = p->obj;
@@ -602,6 +602,18 @@ static void de_zoom_formula(const ub_de_params *p, vm lanes, vf a, vf b, vf c, c
     zoom_out_vectors(&r, wanted, want, dist, iters, x);
 }
 
+/* The Julia set's estimate alone, as the march and the normals' differences ask for it: flattened,
+ * so that it has its own copy of the loop with the kind and the extras known when compiled (the
+ * out-of-line de_quaternion tested them in every iteration), without inlining de_quaternion's
+ * other uses as well (that made the "everything" scene 4 % slower). Issue 21: the peer scene 5 %
+ * faster, the "everything" scene 2 %. */
+static __attribute__((flatten)) void de_julia(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf d, vf *dist,
+                                              vf *iters)
+{
+    ub_de_extra unused;
+    de_quaternion(p, lanes, 0, a, b, c, d, 0, dist, iters, &unused);
+}
+
 /* The distance estimate of the object's kind, with the extras `want` asks for, in the lanes
  * `lanes`; the other lanes' outputs are unspecified (but never trap), and they cost nothing once
  * the wanted lanes are done: a packet whose rays have mostly hit iterates only for the rest. */
@@ -642,7 +654,10 @@ static inline void de_ext(const ub_de_params *p, vm lanes, vf a, vf b, vf c, vf 
         de_hybrid(p, lanes, a, b, c, want, dist, iters, x);
         break;
     default:
-        de_quaternion(p, lanes, 0, a, b, c, d, want, dist, iters, x);
+        if (want)
+            de_quaternion(p, lanes, 0, a, b, c, d, want, dist, iters, x);
+        else
+            de_julia(p, lanes, a, b, c, d, dist, iters);
         break;
     }
 }
