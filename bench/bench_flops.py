@@ -36,6 +36,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_core  # noqa: E402  (puts the built module on the path)
@@ -64,7 +66,6 @@ def measured_peaks(kernels):
 
 def render(width, height, threads, simd):
     cam = bench_core.camera(width, height)
-    import numpy as np
     passes = {n: np.zeros((height, width, uc.PASS_CHANNELS[n]), np.float32) for n in ("combined", "alpha", "depth")}
     c0, t0 = time.process_time(), time.perf_counter()
     stats = uc.render(cam, [bench_core.OBJECT], passes, threads=threads, simd=simd)
@@ -97,7 +98,6 @@ def pair(kernel, renders=8):
 
 def loop_gflops(kernel, points=1 << 19, low=16, high=80, repeats=5):
     """GFLOP/s of the iteration loop alone (slope between two iteration counts, every lane busy)."""
-    import numpy as np
     pts = ((np.random.default_rng(1).random((points, 3)) - 0.5) * 0.4).astype(np.float32)  # |p| < 0.35
     est, its = np.zeros(points, np.float32), np.zeros(points, np.float32)
 

@@ -181,9 +181,6 @@ static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mand
             c = v_select(active, nc, c);
             d = v_select(active, nd, d);
             v2 = v_select(active, nv2, v2);
-            b2 = v_add(b, b);
-            c2 = v_add(c, c);
-            d2 = v_add(d, d);
         } else {
             /* Nothing reads z after the loop: escaped lanes iterate on (to inf or NaN, harmless:
              * r2, the derivative and the trap froze at the escape), and no blend sits on the
@@ -193,10 +190,10 @@ static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mand
             c = nc;
             d = nd;
             v2 = nv2;
-            b2 = v_add(nb, nb);
-            c2 = v_add(nc, nc);
-            d2 = v_add(nd, nd);
         }
+        b2 = v_add(b, b);
+        c2 = v_add(c, c);
+        d2 = v_add(d, d);
         active = orbit_step(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
         if (!m_bits(active))
             break;
