@@ -86,6 +86,14 @@ static inline void world_texel(const ub_world *wd, double u, double v, int *i, i
 /* The map seen along direction d, bilinear: wraps around in u, clamps at the poles. */
 static void world_radiance(const ub_world *wd, const double d[3], float out[3])
 {
+    if (wd->w == 1 && wd->h == 1) {
+        /* A constant World (a 1x1 map): all four corners are the one texel, so the blend below
+         * is t + fx (t - t) = t + 0 for any direction; the same bits without the two arc
+         * cosines of world_uv (a third of a missed ray's cost). */
+        for (int k = 0; k < 3; k++)
+            out[k] = wd->rgb[k] + 0.0f;
+        return;
+    }
     double u, v;
     world_uv(d, &u, &v);
     double x = u * wd->w - 0.5, y = v * wd->h - 0.5;
@@ -169,6 +177,10 @@ static double diffuse_sample(const float n[3], double r1, double r2, double wi[3
 /* Density per steradian of the map's distribution along direction d, and the texel (i, j) d sees. */
 static double world_pdf_along(const ub_world *wd, const double d[3], int *i, int *j)
 {
+    if (wd->w == 1 && wd->h == 1) { /* a constant World: texel (0, 0) whatever the direction */
+        *i = *j = 0;
+        return world_pdf(wd, 0, 0, ub_hypot(d[0], d[1]));
+    }
     double u, v;
     world_uv(d, &u, &v);
     world_texel(wd, u, v, i, j);
