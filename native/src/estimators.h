@@ -611,6 +611,67 @@ static __attribute__((flatten)) void de_julia(const ub_de_params *p, vm lanes, v
     de_quaternion(p, lanes, 0, a, b, c, d, 0, dist, iters, &unused);
 }
 
+/* Two Julia estimates at once, points (a0, b0, c0, d0) and (a1, b1, c1, d1) in the same lanes: the
+ * two sides of a central difference. One loop carries both orbits, so the second one's operations
+ * fill the vector ports while the first waits on its loop-carried path (de_quaternion: a -> b -> a,
+ * about 10 cycles an iteration where the ports allow about 8.5). Each orbit is de_quaternion's
+ * with want = 0, operation for operation, so each estimate has de_julia's bits; the loop runs until
+ * both orbits' lanes have escaped (an escaped lane's z iterates on, harmless: r2 and the
+ * derivative froze at its escape, as in de_quaternion). Issue 21: the normals' six estimates a hit
+ * take three of these. */
+static __attribute__((flatten)) void de_julia_pair(const ub_de_params *p, vm lanes, const vf z0[4], const vf z1[4],
+                                                   vf dist[2], vf iters[2])
+{
+    const vf four = v_set1(4.0f);
+    vf a[2] = {z0[0], z1[0]}, b[2] = {z0[1], z1[1]}, c[2] = {z0[2], z1[2]}, d[2] = {z0[3], z1[3]};
+    vf v2[2], r2[2], dr2[2], n[2], b2[2], c2[2], d2[2];
+    vm active[2];
+    for (int k = 0; k < 2; k++) {
+        v2[k] = v_fma(b[k], b[k], v_fma(c[k], c[k], v_mul(d[k], d[k])));
+        r2[k] = v_fma(a[k], a[k], v2[k]);
+        dr2[k] = v_set1(1.0f);
+        n[k] = v_set1(0.0f);
+        active[k] = lanes;
+        b2[k] = v_add(b[k], b[k]);
+        c2[k] = v_add(c[k], c[k]);
+        d2[k] = v_add(d[k], d[k]);
+    }
+    for (int it = 0; it < p->max_iterations && m_bits(m_or(active[0], active[1])); it++) {
+        for (int k = 0; k < 2; k++) {
+            vf na = v_sub(v_fma(a[k], a[k], p->mu[0]), v2[k]);
+            vf nb = v_fma(a[k], b2[k], p->mu[1]);
+            vf nc = v_fma(a[k], c2[k], p->mu[2]);
+            vf nd = v_fma(a[k], d2[k], p->mu[3]);
+            dr2[k] = v_select(active[k], v_mul(dr2[k], v_mul(four, r2[k])), dr2[k]);
+            vf nv2 = v_fma(nb, nb, v_fma(nc, nc, v_mul(nd, nd)));
+            vf nr2 = v_fma(na, na, nv2);
+            a[k] = na;
+            b[k] = nb;
+            c[k] = nc;
+            d[k] = nd;
+            v2[k] = nv2;
+            b2[k] = v_add(nb, nb);
+            c2[k] = v_add(nc, nc);
+            d2[k] = v_add(nd, nd);
+            r2[k] = v_select(active[k], nr2, r2[k]);
+            n[k] = v_count(n[k], active[k]);
+            active[k] = m_andnot(v_gt(nr2, p->bail2), active[k]);
+        }
+    }
+    for (int k = 0; k < 2; k++) {
+        vm escaped = v_gt(r2[k], p->bail2);
+        vf est = v_mul(v_mul(v_sqrt(v_div(r2[k], dr2[k])), v_log(r2[k])), v_set1(0.25f));
+        dist[k] = v_select(escaped, est, v_set1(0.0f));
+        iters[k] = n[k];
+    }
+}
+
+/* Whether de() of these parameters is de_julia: a Julia set not on a deep-zoom path. */
+static inline int julia_only(const ub_de_params *p)
+{
+    return !p->zoom_path && p->obj->kind == UB_KIND_QUATERNION_JULIA;
+}
+
 /* The distance estimate of the object's kind, with the extras `want` asks for, in the lanes
  * `lanes`; the other lanes' outputs are unspecified (but never trap), and they cost nothing once
  * the wanted lanes are done: a packet whose rays have mostly hit iterates only for the rest. */
@@ -745,10 +806,18 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, 
             vf off[4], v[2];
             for (int k = 0; k < 4; k++)
                 off[k] = v_mul(h, v_set1((float)o->slice_basis[k][axis]));
+            vf z[2][4];
+            for (int side = 0; side < 2; side++)
+                for (int k = 0; k < 4; k++)
+                    z[side][k] = v_fma(v_set1(side ? -1.0f : 1.0f), off[k], q[k]);
+            if (!potential && julia_only(dp)) {
+                vf it2[2];
+                de_julia_pair(dp, lanes, z[0], z[1], v, it2);
+                g[axis] = v_sub(v[0], v[1]);
+                continue;
+            }
             for (int side = 0; side < 2; side++) {
-                vf sg = v_set1(side ? -1.0f : 1.0f);
-                vf a = v_fma(sg, off[0], q[0]), b = v_fma(sg, off[1], q[1]), c = v_fma(sg, off[2], q[2]),
-                   d = v_fma(sg, off[3], q[3]);
+                vf a = z[side][0], b = z[side][1], c = z[side][2], d = z[side][3];
                 if (potential) {
                     de_ext(dp, lanes, a, b, c, d, UB_WANT_POTENTIAL, &dist, &it, &x);
                     v[side] = x.potential;
