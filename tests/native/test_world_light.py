@@ -15,15 +15,18 @@ def env_direction(u, v):
     return np.stack(np.broadcast_arrays(np.cos(phi) * np.cos(lat), -np.sin(phi) * np.cos(lat), np.sin(lat)), -1)
 
 
-def test_uniform_world_lights_a_ball_to_albedo_times_radiance():
-    """A uniform world of radiance L on a diffuse ball of albedo rho: rho L at every pixel. Each
+@pytest.mark.parametrize("texels", [(8, 16), (1, 1)], ids=["map", "constant"])
+def test_uniform_world_lights_a_ball_to_albedo_times_radiance(texels):
+    """A uniform world of radiance L on a diffuse ball of albedo rho: rho L at every pixel. A
+    constant World is a 1x1 map (the add-on's), which skips the map's coordinates (world.h); it
+    must light and show the same. Each
     world-sample pair adds L cos/pi / (p_map + p_surface) for two directions, each term <= L (as
     p_surface = cos/pi), so a pair's estimate lies in [0, 2 rho L]: by Hoeffding, a pixel's mean
     of K pairs is within rho L sqrt(2 ln(2 n / delta) / K) of rho L for all n pixels but with
     probability delta (1e-3 here); the mean over the pixels within 4 rho L / sqrt(K n)."""
     cam = make_camera(48, 36)
     rho, L = np.array([0.5, 0.8, 0.25]), np.array([2.0, 1.0, 4.0])
-    world = uniform_world(L)
+    world = np.broadcast_to(np.asarray(L, np.float32), texels + (3,)).copy()
     samples, world_samples = 16, 16
     passes, _ = render(cam, [dict(BALL, color=tuple(rho))], names=["combined", "diffuse"], world=world,
                        background=(0, 0, 0, 1), shading=dict(NO_PAPER_LIGHT, samples=samples,
@@ -37,8 +40,8 @@ def test_uniform_world_lights_a_ball_to_albedo_times_radiance():
     assert np.all(np.abs(got.mean(0) - expected) <= 4 * expected / np.sqrt(K * n))
     # The world's light is the surface's direct light: the Diffuse pass holds it.
     assert np.allclose(passes["diffuse"][inner], got, rtol=1e-6)
-    # Missed camera rays see the world itself.
-    assert np.allclose(passes["combined"][outer][:, :3], L, rtol=1e-6)
+    # Missed camera rays see the world itself, exactly: the bilinear blend of equal texels is t + 0.
+    assert np.array_equal(passes["combined"][outer][:, :3], np.broadcast_to(np.float32(L), (outer.sum(), 3)))
     assert np.all(passes["combined"][outer][:, 3] == 1.0)
 
 
