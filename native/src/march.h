@@ -128,6 +128,9 @@ typedef struct {
     vm out_of_steps; /* still marching after max_steps: neither a hit nor out of the ball */
 } ub_march_result;
 
+/* How much longer than the plain step an over-relaxed step is (march below). */
+#define UB_OVER_RELAXATION 1.5f
+
 static inline vf threshold(const ub_de_params *p, vf t)
 {
     return v_fma(p->eps1, t, p->eps0);
@@ -145,9 +148,9 @@ static inline vf resolution(vf s)
  * thin sets come for free: the threshold is the minimum increment, so a dendrite thinner than
  * it still stops the ray. With `penumbra` (shadow rays), also tracks min d / (t tan(angle)):
  * how nearly the ray missed, relative to the light's apparent size (soft shadows). */
-static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
-                         const ub_object_rays *r, vf t_base, int lanes, int refine_hits,
-                         ub_march_result *res, vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
+static inline __attribute__((always_inline)) void march_rays(const ub_scene *sc, const ub_object *o,
+        const ub_de_params *dp, const ub_object_rays *r, vf t_base, int lanes, int refine_hits, const int relax,
+        ub_march_result *res, vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
 {
     vf q0[4], qd[4];
     for (int k = 0; k < 4; k++) {
@@ -163,6 +166,15 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
      * the hit and the last sample before it, without per-step bookkeeping. */
     vf s = v_set1(0.0f), prev = s, iter_sum = s, dist = s, iters = s, dw = s;
     vm active = m_from_bits(lanes), hit = m_false();
+    /* Over-relaxed steps (`relax`, issue 21; Keinert et al. 2014, enhanced sphere tracing): a lane
+     * steps UB_OVER_RELAXATION times the plain step while the unbounding spheres at consecutive
+     * samples overlap, (s - prev) <= dw(prev) + dw(s): their union then holds the whole segment, so
+     * no point of the set lies between the two samples (section 3's certificate, from two balls
+     * instead of one). Where they do not overlap, the lane goes back to prev, discards the sample
+     * at s, and takes plain steps from there on. */
+    vf omega = v_set1(relax ? UB_OVER_RELAXATION : 1.0f);
+    vf prev_dw = s, prev_dist = s, prev_iters = s, last_step = s;
+    vm relaxed_last = m_false(); /* lanes whose last step was over-relaxed: their sample is checked */
     /* A cancelled march returns no hits (its caller still reads the result). */
     res->hit = res->out_of_steps = hit;
     res->s = res->iters = res->dist = s;
@@ -178,6 +190,17 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
         iters = v_select(active, new_iters, iters);
         dw = v_mul(dist, sigma);
         vf eps = threshold(dp, v_add(tb, s));
+        if (relax) {
+            vm gap = m_and(relaxed_last, v_gt(last_step, v_add(prev_dw, dw)));
+            if (m_bits(gap)) { /* back to prev and its estimate; plain steps from there on */
+                s = v_select(gap, prev, s);
+                dist = v_select(gap, prev_dist, dist);
+                iters = v_select(gap, prev_iters, iters);
+                dw = v_select(gap, prev_dw, dw);
+                eps = threshold(dp, v_add(tb, s));
+                omega = v_select(gap, v_set1(1.0f), omega);
+            }
+        }
         *steps = v_count(*steps, active);
         iter_sum = v_add(iter_sum, v_select(active, iters, v_set1(0.0f)));
         vm is_hit = m_and(active, v_lt(dw, eps));
@@ -190,7 +213,7 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
          * represents, and that is the hit (at the resolution limit), not a ray that stalls until
          * it runs out of steps and shows the background where the set is. Rays that still move
          * march on exactly as before. */
-        vf step_len = v_max(v_min(v_mul(dw, factor), max_step), v_min(dw, resolution(s)));
+        vf step_len = v_max(v_min(v_mul(v_mul(dw, factor), omega), max_step), v_min(dw, resolution(s)));
         vf next = v_add(s, step_len);
         is_hit = m_or(is_hit, m_and(active, v_le(next, s)));
         if (penumbra) {
@@ -200,6 +223,13 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
         }
         hit = m_or(hit, is_hit);
         active = m_andnot(is_hit, active);
+        if (relax) {
+            prev_dw = v_select(active, dw, prev_dw);
+            prev_dist = v_select(active, dist, prev_dist);
+            prev_iters = v_select(active, iters, prev_iters);
+            last_step = v_select(active, v_sub(next, s), last_step);
+            relaxed_last = m_and(active, v_gt(omega, v_set1(1.0f)));
+        }
         prev = v_select(active, s, prev);
         s = v_select(active, next, s);
         active = m_and(active, v_le(s, s_max));
@@ -251,6 +281,25 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     v_store(it, iter_sum);
     for (int l = 0; l < UB_LANES; l++)
         cnt->iterations += (uint64_t)it[l];
+}
+
+/* march_rays with `relax` known when compiled, so that the plain march carries none of the
+ * over-relaxation's bookkeeping. Over-relaxed: hard shadow rays (they only ask whether something
+ * is hit: refine_hits = 0, no penumbra) through the kinds whose estimate is a proven bound
+ * (o->exact; the empirical ones keep their step_factor's margin). Camera and reflection rays march
+ * plainly: a hit there is also where the surface is drawn, and a relaxed step can pass within a
+ * threshold of the set without stopping (the certificate covers the set, not its eps-shell),
+ * which moved silhouette pixels and made a deep zoom's pixels pop where its path switches. Soft
+ * shadows too: their penumbra is the least clearance over the samples, which fewer samples would
+ * lighten. */
+static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp, const ub_object_rays *r,
+                  vf t_base, int lanes, int refine_hits, ub_march_result *res, vf *steps, vf *penumbra,
+                  vf tan_angle, ub_counters *cnt)
+{
+    if (o->exact && !refine_hits && !penumbra)
+        march_rays(sc, o, dp, r, t_base, lanes, refine_hits, 1, res, steps, penumbra, tan_angle, cnt);
+    else
+        march_rays(sc, o, dp, r, t_base, lanes, refine_hits, 0, res, steps, penumbra, tan_angle, cnt);
 }
 
 /* What a packet of rays hit. */
