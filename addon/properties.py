@@ -345,7 +345,8 @@ class UnboundSceneSettings(bpy.types.PropertyGroup):
                                   "every world node tree, baked by Cycles into an equirectangular map once per "
                                   "change", default=True)
     world_samples: IntProperty(name="World Samples", description="World light samples per hit and sample, each "
-                               "one from the World's map and one from the surface (0: the World is only seen)",
+                               "one from the World's map and one from the surface (a World of one colour: "
+                               "from the surface alone); 0: the World is only seen",
                                default=1, min=0, max=64)
     world_resolution: IntProperty(name="World Map Width", description="Width of the equirectangular map a "
                                   "non-constant World is baked into (height: half of it)", default=512, min=16,

@@ -235,7 +235,8 @@ static const ub_param shading_rows[] = {
     REAL(SH, sea_reflectivity, 0.0, 1.0, D(0.5), "sea: fraction of light mirrored"),
     INTEGER(SH, world_samples, 0, UB_MAX_WORLD_SAMPLES, D(1.0),
             "world light samples per hit and anti-aliasing sample, each one from the world map and one "
-            "from the surface (multiple importance sampling); 0: the world map is only seen, it lights nothing"),
+            "from the surface (multiple importance sampling; a constant 1x1 map: from the surface alone); "
+            "0: the world map is only seen, it lights nothing"),
     FLAG(SH, use_gi, NULL, "global illumination: paths bounce off every surface (Cycles' Light Paths); no ambient term"),
     INTEGER(SH, max_bounces, 0, UB_MAX_BOUNCES, D(12), "global illumination: bounces of a path in all"),
     INTEGER(SH, diffuse_bounces, 0, UB_MAX_BOUNCES, D(4), "global illumination: diffuse bounces of a path"),

@@ -229,10 +229,11 @@ static double surface_density(const ub_bsdf *b, const float n[3], const double w
  * included); 0 if nothing can arrive. technique 0 draws from the map, 1 from the surface
  * (surface_sample; r_lobe picks a material's lobe). With global illumination (bd not NULL) the
  * path's own next bounce is the second technique: the map's N samples are weighed against its
- * density, p_surface = density / N (balance heuristic over N + 1 samples; see world_bounce_share). */
+ * density, p_surface = density / N (balance heuristic over N + 1 samples; see world_bounce_share).
+ * `surface_only` (a constant World, world_light): the surface's direction alone, L f / p_surface. */
 static int world_direction_weight(const ub_world *wd, const float n[3], const ub_bsdf *b, const double wo[3],
-                                  int technique, double r_lobe, double r1, double r2, const ub_bounce_density *bd,
-                                  int N, double d[3], double weight[3])
+                                  int technique, int surface_only, double r_lobe, double r1, double r2,
+                                  const ub_bounce_density *bd, int N, double d[3], double weight[3])
 {
     double p_map, p_surface;
     int i, j;
@@ -244,7 +245,12 @@ static int world_direction_weight(const ub_world *wd, const float n[3], const ub
         p_surface = surface_sample(b, n, wo, r_lobe, r1, r2, d);
         if (!(p_surface > 0.0))
             return 0;
-        p_map = world_pdf_along(wd, d, &i, &j);
+        if (surface_only) {
+            i = j = 0;
+            p_map = 0.0;
+        } else {
+            p_map = world_pdf_along(wd, d, &i, &j);
+        }
     }
     double response[3];
     if (b) {
@@ -292,6 +298,13 @@ static void world_light(const ub_scene *sc, const ub_de_params *dps, const sampl
     if (!wd || N <= 0 || !(wd->sum > 0.0))
         return;
     const float scale = 1.0f / (float)N;
+    /* Issue 21: a constant World (a 1x1 map, the add-on's for a World of one colour) sends the
+     * same radiance from everywhere, so the integrand is L times the surface's response, which the
+     * surface's own sampling follows (exactly, for Lambert: each sample is L rho, whatever the
+     * direction, when unoccluded). Its N samples come from the surface alone: half the shadow rays
+     * of N pairs, and less noise. The same expectation; with global illumination, lanes that
+     * bounce keep the map's samples (the bounce's MIS reads them: world_bounce_share). */
+    const int constant = wd->w == 1 && wd->h == 1;
     for (int s = 0; s < N && !cancelled(sc); s++) {
         for (int technique = 0; technique < 2; technique++) {
             ub_packet_rays sr;
@@ -308,6 +321,9 @@ static void world_light(const ub_scene *sc, const ub_de_params *dps, const sampl
                 const ub_bounce_density *bd = bounces && bounces[l].scale > 0.0 ? &bounces[l] : NULL;
                 if (bd && technique == 1)
                     continue;
+                const int surface_only = constant && !bd;
+                if (surface_only && technique == 0)
+                    continue;
                 const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
                 int dim = ((bounce * N + s) * 2 + technique) * 2;
                 double r1 = random_uniform(px0 + step * l, py, sp->index, dim);
@@ -318,7 +334,7 @@ static void world_light(const ub_scene *sc, const ub_de_params *dps, const sampl
                                                     : 0.0;
                 float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
                 double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, d[3], w[3];
-                if (!world_direction_weight(wd, n, b, wo, technique, r_lobe, r1, r2, bd, N, d, w))
+                if (!world_direction_weight(wd, n, b, wo, technique, surface_only, r_lobe, r1, r2, bd, N, d, w))
                     continue;
                 /* The sea is opaque: the sky below it does not reach a point above it. */
                 if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)

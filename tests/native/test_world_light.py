@@ -38,6 +38,10 @@ def test_uniform_world_lights_a_ball_to_albedo_times_radiance(texels):
     per_pixel = np.sqrt(2 * np.log(2 * n / 1e-3) / K)
     assert np.all(np.abs(got - expected) <= per_pixel * expected), np.abs(got / expected - 1).max()
     assert np.all(np.abs(got.mean(0) - expected) <= 4 * expected / np.sqrt(K * n))
+    if texels == (1, 1):
+        # A constant World is sampled from the surface alone (world.h): for Lambert each sample is
+        # L cos/pi / (cos/pi) = L, times rho, so an unoccluded convex ball has no noise at all.
+        assert np.allclose(got, expected, rtol=1e-5), np.abs(got / expected - 1).max()
     # The world's light is the surface's direct light: the Diffuse pass holds it.
     assert np.allclose(passes["diffuse"][inner], got, rtol=1e-6)
     # Missed camera rays see the world itself, exactly: the bilinear blend of equal texels is t + 0.
