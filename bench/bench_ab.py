@@ -8,12 +8,14 @@ Scenes (bench_core.py's peer scene, quaternion Julia set mu = -0.2+0.8i, 16 iter
 (-2,-2,1) looking at the origin):
   peer  1280x1024, passes combined, alpha, depth, the default shading (the axle light);
   all   640x512, every pass, bench_effects.py's "everything" row (a soft sun with shadows, AO,
-        reflections and the sea, fog, glow, 4 samples).
+        reflections and the sea, fog, glow, 4 samples);
+  NAME  640x512, passes combined, alpha, depth, any other row of bench_effects.py (hard, soft, ao,
+        reflect, sea, fog, glow, samples4, n_potential, n_zbuffer, n_analytic).
 
 A build is a directory holding the unpacked wheel (`build/wheel` after `make wheel`; copy it
 aside before rebuilding the other):
 
-    python bench/bench_ab.py OLD/wheel NEW/wheel [--scene peer|all] [--rounds 5] [--threads 1]
+    python bench/bench_ab.py OLD/wheel NEW/wheel [--scene peer|all|NAME] [--rounds 5] [--threads 1]
 """
 from __future__ import annotations
 
@@ -34,9 +36,10 @@ cam = dict(matrix=uc.look_at((-2.0, -2.0, 1.0), (0, 0, 0), (0, 0, 1)),
            projection=uc.perspective(2 * math.atan(0.5), W / H, 0.1, 100.0), width=W, height=H)
 obj = dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=16, bailout=4.0)
 names, shading = ("combined", "alpha", "depth"), {}
-if scene == "all":
-    _, _, over, shading = [c for c in fx.CASES if c[0] == "all"][0]
-    obj, names = dict(obj, **over), uc.PASSES
+if scene != "peer":
+    _, _, over, shading = [c for c in fx.CASES if c[0] == scene][0]
+    obj = dict(obj, **over)
+    names = uc.PASSES if scene == "all" else names
 p = {n: np.zeros((H, W, uc.PASS_CHANNELS[n]), np.float32) for n in names}
 uc.render(cam, [obj], p, shading=shading, threads=threads)
 c0 = time.process_time()
@@ -50,7 +53,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("build_a")
     ap.add_argument("build_b")
-    ap.add_argument("--scene", choices=("peer", "all"), default="peer")
+    ap.add_argument("--scene", default="peer", help="peer, or a row of bench_effects.py (all, hard, ...)")
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--threads", type=int, default=1)
     args = ap.parse_args(argv)
