@@ -101,6 +101,33 @@ static inline vm orbit_step(const ub_de_params *p, const int want, vm active, vf
     return m_andnot(v_gt(nr2, p->bail2), active);
 }
 
+/* One step of f(z) = z^2 + mu on z = (a, b, c, d), given 2b, 2c, 2d and |v|^2 = b^2 + c^2 + d^2 of
+ * z: the new z. 2ab + mu1 as fma(a, 2b, mu1), not fma(2a, b, mu1): the same
+ * number (doubling is exact and an fma rounds only once, after the exact product), but a reaches
+ * the new b through one fma instead of an add and an fma. The loop-carried path a -> b -> b^2 -> a
+ * sets the pace of the loops; it is 4 cycles shorter (issue 21; 2b, 2c, 2d are carried). */
+static inline void quaternion_square_step(const vf mu[4], vf a, vf b2, vf c2, vf d2, vf v2, vf z[4])
+{
+    z[0] = v_sub(v_fma(a, a, mu[0]), v2);
+    z[1] = v_fma(a, b2, mu[1]);
+    z[2] = v_fma(a, c2, mu[2]);
+    z[3] = v_fma(a, d2, mu[3]);
+}
+
+/* |v|^2 and |z|^2 of z = (a, b, c, d). */
+static inline void quaternion_norms(const vf z[4], vf *v2, vf *r2)
+{
+    *v2 = v_fma(z[1], z[1], v_fma(z[2], z[2], v_mul(z[3], z[3])));
+    *r2 = v_fma(z[0], z[0], *v2);
+}
+
+/* The escape-time distance estimate |z| log|z| / (2 |grad|) from r2 = |z|^2, its logarithm lr2 and
+ * grad2 = |grad|^2: sqrt(r2 / grad2) lr2 / 4. */
+static inline vf escape_estimate(vf r2, vf lr2, vf grad2)
+{
+    return v_mul(v_mul(v_sqrt(v_div(r2, grad2)), lr2), v_set1(0.25f));
+}
+
 /* The quaternion iteration of section 3, for the Julia sets (z0 = the point, mu fixed) and,
  * with `mandel`, the Mandelbrot slices (z0 = mu = the point: the orbit from z1 = mu of the
  * critical point 0). Besides the distance estimate it yields the orbit trap, the potential G()
@@ -160,10 +187,8 @@ static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mand
                         j[k][c4] = v_mul(j[k][c4], s);
             }
         }
-        /* 2ab + mu1 as fma(a, 2b, mu1), not fma(2a, b, mu1): the same number (doubling is exact
-         * and an fma rounds only once, after the exact product), but a reaches the new b through
-         * one fma instead of an add and an fma. The loop-carried path a -> b -> b^2 -> a sets the
-         * pace of this loop; it is 4 cycles shorter (issue 21; b2, c2, d2 are carried). */
+        /* quaternion_square_step, written out: through its array this loop measured 2-3 %
+         * slower on the peer scene (GCC schedules the latency-bound chain differently). */
         vf na = v_sub(v_fma(a, a, mu[0]), v2);
         vf nb = v_fma(a, b2, mu[1]);
         vf nc = v_fma(a, c2, mu[2]);
@@ -203,8 +228,7 @@ static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mand
     if (mandel)
         dr2 = v_mul(dm, dm);
     vf lr2 = v_log(r2);
-    vf est = v_mul(v_mul(v_sqrt(v_div(r2, dr2)), lr2), v_set1(0.25f));
-    *dist = v_select(escaped, est, v_set1(0.0f));
+    *dist = v_select(escaped, escape_estimate(r2, lr2, dr2), v_set1(0.0f));
     *iters = n;
     if (want & UB_WANT_TRAP)
         x->trap = v_sqrt(trap);
@@ -263,7 +287,7 @@ static inline void de_stack(const ub_de_params *p, vm lanes, vf x, vf y, vf w, c
     vm escaped = v_gt(r2, p->bail2);
     vf lr2 = v_log(r2);
     vf dc = v_mul(dm, cw);
-    vf est = v_mul(v_mul(v_sqrt(v_div(r2, v_fma(dc, dc, dr2))), lr2), v_set1(0.25f));
+    vf est = escape_estimate(r2, lr2, v_fma(dc, dc, dr2));
     vf slab = v_sub(v_max(w, v_sub(v_set1(0.0f), w)), v_set1((float)(0.5 * o->stack_height)));
     *dist = v_max(v_select(escaped, est, v_set1(0.0f)), slab);
     *iters = n;
@@ -324,7 +348,7 @@ static inline void cubic_orbit(const ub_de_params *p, vm lanes, float sign, vf a
     }
     vm escaped = v_gt(r2, p->bail2);
     vf lr2 = v_log(r2);
-    vf est = v_mul(v_mul(v_sqrt(v_div(r2, grad2)), lr2), v_set1(0.25f));
+    vf est = escape_estimate(r2, lr2, grad2);
     /* An overflowed gradient gives 0 (a hit) rather than a step too far. */
     *dist = v_select(escaped, v_select(v_lt(grad2, v_set1(HUGE_VALF)), est, zero), zero);
     *iters = n;
@@ -623,36 +647,29 @@ static __attribute__((flatten)) void de_julia_pair(const ub_de_params *p, vm lan
                                                    vf dist[2], vf iters[2])
 {
     const vf four = v_set1(4.0f);
-    vf a[2] = {z0[0], z1[0]}, b[2] = {z0[1], z1[1]}, c[2] = {z0[2], z1[2]}, d[2] = {z0[3], z1[3]};
-    vf v2[2], r2[2], dr2[2], n[2], b2[2], c2[2], d2[2];
+    const vf *z[2] = {z0, z1};
+    vf a[2], v2[2], r2[2], dr2[2], n[2], b2[2], c2[2], d2[2];
     vm active[2];
     for (int k = 0; k < 2; k++) {
-        v2[k] = v_fma(b[k], b[k], v_fma(c[k], c[k], v_mul(d[k], d[k])));
-        r2[k] = v_fma(a[k], a[k], v2[k]);
+        a[k] = z[k][0];
+        quaternion_norms(z[k], &v2[k], &r2[k]);
         dr2[k] = v_set1(1.0f);
         n[k] = v_set1(0.0f);
         active[k] = lanes;
-        b2[k] = v_add(b[k], b[k]);
-        c2[k] = v_add(c[k], c[k]);
-        d2[k] = v_add(d[k], d[k]);
+        b2[k] = v_add(z[k][1], z[k][1]);
+        c2[k] = v_add(z[k][2], z[k][2]);
+        d2[k] = v_add(z[k][3], z[k][3]);
     }
     for (int it = 0; it < p->max_iterations && m_bits(m_or(active[0], active[1])); it++) {
         for (int k = 0; k < 2; k++) {
-            vf na = v_sub(v_fma(a[k], a[k], p->mu[0]), v2[k]);
-            vf nb = v_fma(a[k], b2[k], p->mu[1]);
-            vf nc = v_fma(a[k], c2[k], p->mu[2]);
-            vf nd = v_fma(a[k], d2[k], p->mu[3]);
+            vf nz[4], nr2;
+            quaternion_square_step(p->mu, a[k], b2[k], c2[k], d2[k], v2[k], nz);
             dr2[k] = v_select(active[k], v_mul(dr2[k], v_mul(four, r2[k])), dr2[k]);
-            vf nv2 = v_fma(nb, nb, v_fma(nc, nc, v_mul(nd, nd)));
-            vf nr2 = v_fma(na, na, nv2);
-            a[k] = na;
-            b[k] = nb;
-            c[k] = nc;
-            d[k] = nd;
-            v2[k] = nv2;
-            b2[k] = v_add(nb, nb);
-            c2[k] = v_add(nc, nc);
-            d2[k] = v_add(nd, nd);
+            quaternion_norms(nz, &v2[k], &nr2);
+            a[k] = nz[0];
+            b2[k] = v_add(nz[1], nz[1]);
+            c2[k] = v_add(nz[2], nz[2]);
+            d2[k] = v_add(nz[3], nz[3]);
             r2[k] = v_select(active[k], nr2, r2[k]);
             n[k] = v_count(n[k], active[k]);
             active[k] = m_andnot(v_gt(nr2, p->bail2), active[k]);
@@ -660,8 +677,7 @@ static __attribute__((flatten)) void de_julia_pair(const ub_de_params *p, vm lan
     }
     for (int k = 0; k < 2; k++) {
         vm escaped = v_gt(r2[k], p->bail2);
-        vf est = v_mul(v_mul(v_sqrt(v_div(r2[k], dr2[k])), v_log(r2[k])), v_set1(0.25f));
-        dist[k] = v_select(escaped, est, v_set1(0.0f));
+        dist[k] = v_select(escaped, escape_estimate(r2[k], v_log(r2[k]), dr2[k]), v_set1(0.0f));
         iters[k] = n[k];
     }
 }

@@ -213,13 +213,14 @@ static inline __attribute__((always_inline)) void march_rays(const ub_scene *sc,
          * represents, and that is the hit (at the resolution limit), not a ray that stalls until
          * it runs out of steps and shows the background where the set is. Rays that still move
          * march on exactly as before. */
-        vf step_len = v_max(v_min(v_mul(dw, factor), max_step), v_min(dw, resolution(s)));
+        vf factored = v_mul(dw, factor), least = v_min(dw, resolution(s));
+        vf step_len = v_max(v_min(factored, max_step), least);
         vm relaxing = m_false();
         if (relax) {
             /* A relaxed step past s_max (out of the ball, or past the light) would end where no
              * sample checks it: only the sphere at s would certify it, which a relaxed step
              * outruns. Such a step is taken plainly. */
-            vf longer = v_max(v_min(v_mul(v_mul(dw, factor), omega), max_step), v_min(dw, resolution(s)));
+            vf longer = v_max(v_min(v_mul(factored, omega), max_step), least);
             relaxing = m_and(v_gt(omega, v_set1(1.0f)), v_le(v_add(s, longer), s_max));
             step_len = v_select(relaxing, longer, step_len);
         }
