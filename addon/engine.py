@@ -7,7 +7,7 @@ import traceback
 
 import numpy as np
 
-from . import composite, export, motion_blur, passes, utils
+from . import composite, export, frame_memory, motion_blur, passes, utils
 from .export import RenderError
 
 # Counters of the most recent render in this process (rays, steps, iterations, out_of_steps, seconds,
@@ -53,6 +53,7 @@ def render(engine, depsgraph):
     Whatever fails ends here, as an error report and error_set: Blender then writes no file for
     the frame (a failed frame is never saved as rendered) and nothing escapes into Blender."""
     try:
+        frame_memory.keep()  # the next frame reuses this one's pages (frame_memory.py)
         _render(engine, depsgraph)
     except (RenderError, ImportError, ValueError, TypeError) as exc:
         # ValueError and TypeError: the core's own messages, which name the object and the key.

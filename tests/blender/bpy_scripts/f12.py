@@ -177,3 +177,36 @@ def failure_mid_render_writes_no_file(S, mod, samples=4):
     mod.utils.native = original
     S.report(outcome=outcome, calls=calls)
 
+
+
+def frame_memory_kept(S, mod, width, height, renders):
+    """Page faults per F12 of a scene of seven passes, after a first render (issue 21,
+    addon/frame_memory.py): whether the add-on kept the frame's memory, and which environments
+    it would keep it in."""
+    import resource
+    scene = S.empty_scene(width, height)
+    S.add_camera(scene)
+    S.add_fractal(max_iterations=8)
+    vl = scene.view_layers[0]
+    vl.use_pass_z = vl.use_pass_normal = vl.use_pass_position = True
+    for toggle in ("use_pass_iterations", "use_pass_steps", "use_pass_distance"):
+        setattr(vl.unbound, toggle, True)
+    finished = [bpy.ops.render.render() == {'FINISHED'}]
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    for _ in range(renders):
+        finished.append(bpy.ops.render.render() == {'FINISHED'})
+    faults = (resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before) / renders
+    memory = __import__(mod.__name__ + ".frame_memory", fromlist=["keep"])
+    wanted = {}
+    for name, value in (("default", None), ("UNBOUND_KEEP_FRAME_MEMORY", "0"),
+                        ("MALLOC_TRIM_THRESHOLD_", "1000000")):
+        saved = {k: os.environ.pop(k, None) for k in ("UNBOUND_KEEP_FRAME_MEMORY", "MALLOC_TRIM_THRESHOLD_")}
+        if value is not None:
+            os.environ[name] = value
+        wanted[name] = memory.wanted()
+        for k, v in saved.items():
+            os.environ.pop(k, None)
+            if v is not None:
+                os.environ[k] = v
+    S.report(faults=faults, kept=memory.keep(), wanted=wanted, finished=all(finished),
+             pages_per_frame=width * height * 4 * 14 / 4096)
