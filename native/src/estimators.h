@@ -134,8 +134,8 @@ static inline vf escape_estimate(vf r2, vf lr2, vf grad2)
  * of section 4.1.2 and the Jacobian of f^n along the three slice axes. d(z q)/dx = z dq + dq z
  * for f = z^2 (plus dmu/dx for Mandelbrot), and for z = (a, v), h = (p, w):
  * zh + hz = (2(ap - v.w), 2(aw + pv)) (the cross products cancel). */
-static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mandel, vf a, vf b, vf c, vf d,
-                                        const int want, vf *dist, vf *iters, ub_de_extra *x)
+static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de_params *p, vm lanes,
+        const int mandel, vf a, vf b, vf c, vf d, const int want, vf *dist, vf *iters, ub_de_extra *x)
 {
     const ub_object *o = p->obj;
     const vf mu[4] = {mandel ? a : p->mu[0], mandel ? b : p->mu[1], mandel ? c : p->mu[2], mandel ? d : p->mu[3]};
@@ -237,6 +237,13 @@ static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mand
     if (want & UB_WANT_JACOBIAN)
         for (int k = 0; k < 3; k++)
             x->normal[k] = v_fma(a, j[k][0], v_fma(b, j[k][1], v_fma(c, j[k][2], v_mul(d, j[k][3]))));
+}
+
+/* de_quaternion_body where the compiler chooses whether to inline it (its uses in de_ext). */
+static inline void de_quaternion(const ub_de_params *p, vm lanes, const int mandel, vf a, vf b, vf c, vf d,
+                                 const int want, vf *dist, vf *iters, ub_de_extra *x)
+{
+    de_quaternion_body(p, lanes, mandel, a, b, c, d, want, dist, iters, x);
 }
 
 /* Julia set stacks (section 5.1): the point (x, y, w) is z = x + iy in the Julia set of
@@ -633,6 +640,13 @@ static __attribute__((flatten)) void de_julia(const ub_de_params *p, vm lanes, v
 {
     ub_de_extra unused;
     de_quaternion(p, lanes, 0, a, b, c, d, 0, dist, iters, &unused);
+}
+
+/* de_julia's estimate inlined where it is called (the march: march_de). */
+static inline __attribute__((always_inline)) void de_quaternion_inline(const ub_de_params *p, vm lanes, vf a, vf b,
+        vf c, vf d, vf *dist, vf *iters, ub_de_extra *x)
+{
+    de_quaternion_body(p, lanes, 0, a, b, c, d, 0, dist, iters, x);
 }
 
 /* Two Julia estimates at once, points (a0, b0, c0, d0) and (a1, b1, c1, d1) in the same lanes: the

@@ -4,6 +4,9 @@
  * `#pragma GCC target("avx2,fma")` (not -march=native: the wheel must run on any x86-64). */
 #ifndef UNBOUND_SIMD_AVX2_H
 #define UNBOUND_SIMD_AVX2_H
+/* The march inlines the Julia set's iteration (march.h, march_de): the vector registers hold the
+ * march's state across it. */
+#define UB_INLINE_JULIA_MARCH 1
 #include <immintrin.h>
 #include <stdint.h>
 

@@ -4,6 +4,9 @@
  * the packet is twice as wide. Compile the including file for AVX-512F (kernel_avx512.c). */
 #ifndef UNBOUND_SIMD_AVX512_H
 #define UNBOUND_SIMD_AVX512_H
+/* The march inlines the Julia set's iteration (march.h, march_de): the vector registers hold the
+ * march's state across it. */
+#define UB_INLINE_JULIA_MARCH 1
 #include <immintrin.h>
 #include <stdint.h>
 

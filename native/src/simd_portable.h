@@ -6,6 +6,9 @@
  * ubmath.h's exact ub_fmaf. */
 #ifndef UNBOUND_SIMD_PORTABLE_H
 #define UNBOUND_SIMD_PORTABLE_H
+/* The march calls the Julia set's estimate (march.h, march_de): inlined, the portable build
+ * measured 4 % slower on x86-64. */
+#define UB_INLINE_JULIA_MARCH 0
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
