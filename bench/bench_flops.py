@@ -4,9 +4,10 @@ The peak is measured, not taken from a data sheet: `fma_peak.c` (built here with
 compiler) runs twelve independent FMA chains per vector width on one core, best of three. The
 render's FLOP are counted as issue 21 counts them: 24 per quaternion iteration of the estimate
 (z <- z^2 + mu and |z|^2, with FMA: 1 + 8 + 3 x 2 for the square, 7 for the norm, 2 for the running
-derivative), times `stats["iterations"]` (every iteration of f in the march, its cones and its
-bisection; the normals' Jacobian iterations, which cost more, are not counted, so the figure is a
-lower bound). GFLOP/s per core = FLOP / process CPU seconds of the whole call.
+derivative), times the iterations of f the render runs: `stats["iterations"]` (the march, its cones
+and its bisection) plus `stats["normal_iterations"]` (the six estimates of each hit's central
+differences, the same iteration; counted since 2026-12-01, before that the figure was the march's
+alone, which it also prints). GFLOP/s per core = FLOP / process CPU seconds of the whole call.
 
 Each kernel (avx512, avx2) renders the peer scene (bench_core.py's camera and object, 1280x1024,
 passes combined, alpha, depth) on 1 and 2 threads, interleaved, after a warm-up; medians (min-max).
@@ -69,7 +70,8 @@ def render(width, height, threads, simd):
     passes = {n: np.zeros((height, width, uc.PASS_CHANNELS[n]), np.float32) for n in ("combined", "alpha", "depth")}
     c0, t0 = time.process_time(), time.perf_counter()
     stats = uc.render(cam, [bench_core.OBJECT], passes, threads=threads, simd=simd)
-    return time.process_time() - c0, time.perf_counter() - t0, stats["iterations"]
+    return (time.process_time() - c0, time.perf_counter() - t0, stats["iterations"] + stats["normal_iterations"],
+            stats["iterations"])
 
 
 PAIR_CHILD = r"""
@@ -140,13 +142,15 @@ def main():
                                                             " ".join("%.2f" % x for x in os.getloadavg())))
     for k in kernels:
         one, two = runs[(k, 1)], runs[(k, 2)]
-        gflops = [FLOP_PER_ITERATION * it / cpu * 1e-9 for cpu, _, it in one + two]
+        gflops = [FLOP_PER_ITERATION * it / cpu * 1e-9 for cpu, _, it, _ in one + two]
+        march = [FLOP_PER_ITERATION * it / cpu * 1e-9 for cpu, _, _, it in one + two]
         print("%s: CPU s 1 thread %s, 2 threads %s; wall s 1 thread %s, 2 threads %s" % (
             k, med([r[0] for r in one]), med([r[0] for r in two]), med([r[1] for r in one]), med([r[1] for r in two])))
-        print("  %.1f M iterations per render; %s GFLOP/s per core" % (one[0][2] * 1e-6, med(gflops)))
+        print("  %.1f M iterations per render (%.1f M the march's, %.1f M the normals'); %s GFLOP/s per core" % (
+            one[0][2] * 1e-6, one[0][3] * 1e-6, (one[0][2] - one[0][3]) * 1e-6, med(gflops)))
         if k in peaks:
-            print("  measured FMA peak %.1f GFLOP/s per core: %s %% of it" % (
-                peaks[k], med([100.0 * g / peaks[k] for g in gflops])))
+            print("  measured FMA peak %.1f GFLOP/s per core: %s %% of it (the march's iterations alone: %s %%)" % (
+                peaks[k], med([100.0 * g / peaks[k] for g in gflops]), med([100.0 * g / peaks[k] for g in march])))
         if args.ceiling:
             loop = loop_gflops(k)
             print("  the iteration loop alone (every lane busy): %.1f GFLOP/s per core%s; the render %s %% of it"

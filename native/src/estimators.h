@@ -815,8 +815,10 @@ static inline void quaternion_lanes(const ub_object *o, const double p[3][UB_LAN
 /* Object-space normal at quaternion points q of the lanes `lanes` (the others' are unspecified), by the object's method:
  * eq. 15's central differences of d() or G() with the step h (object units), or the analytic
  * gradient. A degenerate gradient (all samples inside the set, or G flat) falls back to the
- * analytic normal, and that to zero (the caller then faces the normal to the viewer). */
-static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, const vf q[4], vf h, vf g[3])
+ * analytic normal, and that to zero (the caller then faces the normal to the viewer). The
+ * differences' iterations of f in the lanes `lanes` add to *normal_iterations (NULL: not counted). */
+static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, const vf q[4], vf h, vf g[3],
+                          uint64_t *normal_iterations)
 {
     int method = (int)o->normal_method;
     vf dist, it;
@@ -832,6 +834,7 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, 
         method = UB_NORMAL_GRADIENT_DISTANCE;
     if (method != UB_NORMAL_ANALYTIC) {
         const int potential = method == UB_NORMAL_GRADIENT_POTENTIAL;
+        vf iterations = v_set1(0.0f);
         for (int axis = 0; axis < 3; axis++) {
             vf off[4], v[2];
             for (int k = 0; k < 4; k++)
@@ -843,6 +846,7 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, 
             if (!potential && julia_only(dp)) {
                 vf it2[2];
                 de_julia_pair(dp, lanes, z[0], z[1], v, it2);
+                iterations = v_add(iterations, v_add(it2[0], it2[1]));
                 g[axis] = v_sub(v[0], v[1]);
                 continue;
             }
@@ -854,8 +858,15 @@ static void object_normal(const ub_object *o, const ub_de_params *dp, vm lanes, 
                 } else {
                     de(dp, lanes, a, b, c, d, &v[side], &it);
                 }
+                iterations = v_add(iterations, it);
             }
             g[axis] = v_sub(v[0], v[1]);
+        }
+        if (normal_iterations) {
+            float counted[UB_LANES];
+            v_store(counted, v_select(lanes, iterations, v_set1(0.0f)));
+            for (int l = 0; l < UB_LANES; l++)
+                *normal_iterations += (uint64_t)counted[l];
         }
         good = m_or(good, v_gt(v_fma(g[0], g[0], v_fma(g[1], g[1], v_mul(g[2], g[2]))), v_set1(0.0f)));
     }

@@ -294,7 +294,7 @@ static void surface_materials(const ub_scene *sc, const ub_trace_result *tr, ub_
 /* Normals, colour and trap of the hits in `hit_lanes` of one bounce. */
 static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int bounce, int fx,
                            int fy, const ub_packet_rays *pr, const ub_trace_result *tr,
-                           int hit_lanes, int want_trap, ub_surface *sf)
+                           int hit_lanes, int want_trap, ub_surface *sf, ub_counters *cnt)
 {
     const ub_shading *sh = sc->shading;
     const ub_hit_buffer *hb = sc->hits;
@@ -363,7 +363,7 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         quaternion_lanes(o, back_p, qv);
         if (simd_lanes) {
             vf g[3];
-            object_normal(o, &dps[k], m_from_bits(simd_lanes), qv, v_load(hb_), g);
+            object_normal(o, &dps[k], m_from_bits(simd_lanes), qv, v_load(hb_), g, &cnt->normal_iterations);
             float gb[3][UB_LANES];
             for (int a = 0; a < 3; a++)
                 v_store(gb[a], g[a]);
@@ -1121,7 +1121,7 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
                 if (!hit_lanes)
                     break;
                 ub_surface sf;
-                surface(sc, dps, &sp, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf);
+                surface(sc, dps, &sp, bounce, x, y, &pr, &tr, hit_lanes, want_trap && bounce == 0, &sf, cnt);
                 if (cancelled(sc))
                     return;
                 float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
@@ -1208,7 +1208,7 @@ void UB_ENTRY(ub_normals)(const ub_object *o, const float *xyz, const float *t, 
             h[l] = (float)(gradient_step(o, t[i]) / o->sigma_min);
         }
         vf qv[4] = {v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3])}, g[3];
-        object_normal(o, &dp, m_from_bits(UB_ALL_LANES), qv, v_load(h), g);
+        object_normal(o, &dp, m_from_bits(UB_ALL_LANES), qv, v_load(h), g, NULL);
         float gb[3][UB_LANES];
         for (int a = 0; a < 3; a++)
             v_store(gb[a], g[a]);

@@ -845,10 +845,11 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
         PyObject *ratio = footprint_ratio(&cam, objs, count, &film);
         if (!ratio)
             goto done;
-        result = Py_BuildValue("{s:K,s:K,s:K,s:K,s:d,s:i,s:s,s:O,s:N}", "rays",
+        result = Py_BuildValue("{s:K,s:K,s:K,s:K,s:K,s:d,s:i,s:s,s:O,s:N}", "rays",
                                (unsigned long long)stats.counters.rays, "steps",
                                (unsigned long long)stats.counters.steps, "iterations",
-                               (unsigned long long)stats.counters.iterations, "out_of_steps",
+                               (unsigned long long)stats.counters.iterations, "normal_iterations",
+                               (unsigned long long)stats.counters.normal_iterations, "out_of_steps",
                                (unsigned long long)stats.counters.out_of_steps, "seconds", stats.seconds,
                                "threads", stats.threads, "simd", stats.isa, "cancelled",
                                stats.cancelled ? Py_True : Py_False, "footprint_ratio", ratio);

@@ -403,6 +403,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         stats->counters.rays += c->rays;
         stats->counters.steps += c->steps;
         stats->counters.iterations += c->iterations;
+        stats->counters.normal_iterations += c->normal_iterations;
         stats->counters.out_of_steps += c->out_of_steps;
     }
     stats->threads = started ? started : 1;

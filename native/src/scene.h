@@ -343,6 +343,10 @@ typedef struct {
 
 typedef struct {
     uint64_t rays, steps, iterations;
+    /* Iterations of f in the estimates of the normals' central differences (eq. 15), apart from
+     * the march's `iterations`: the same iteration, so a FLOP count of the render counts both
+     * (bench/bench_flops.py). */
+    uint64_t normal_iterations;
     /* Camera rays of the film (each sample) that ran out of max_steps before they hit or left
      * the fractal: drawn as whatever lies behind, the background mostly (issue 18). */
     uint64_t out_of_steps;

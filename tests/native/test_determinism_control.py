@@ -21,7 +21,7 @@ def test_identical_bytes_for_any_threads_tiles_and_simd():
         out, stats = render(cam, [OBJ], threads=threads, tile_size=tile, simd=simd)
         for k in ref:
             assert ref[k].tobytes() == out[k].tobytes(), (k, threads, tile, simd)
-        for k in ("rays", "steps", "iterations"):
+        for k in ("rays", "steps", "iterations", "normal_iterations"):
             assert stats[k] == ref_stats[k]
 
 
@@ -53,6 +53,22 @@ def test_counters_and_stats():
     assert stats["iterations"] >= stats["steps"]
     assert stats["seconds"] > 0 and stats["threads"] >= 1 and stats["simd"] == KERNELS[-1]
     assert stats["cancelled"] is False
+
+
+def test_the_normals_iterations_are_counted_apart():
+    """stats["normal_iterations"]: the iterations of f in the six estimates of each hit's central
+    differences (eq. 15), between one and max_iterations each; none with analytic normals (the
+    Jacobian), none where nothing is hit. The march's count does not change with the method."""
+    cam = make_camera(64, 48)
+    passes, stats = render(cam, [OBJ])
+    hits = int((passes["alpha"] > 0).sum())
+    assert hits > 100
+    assert 6 * hits <= stats["normal_iterations"] <= 6 * hits * OBJ["max_iterations"], (hits, stats)
+    _, analytic = render(cam, [dict(OBJ, normal_method="analytic")])
+    assert analytic["normal_iterations"] == 0 and analytic["iterations"] == stats["iterations"]
+    empty = make_camera(16, 12, eye=(0.0, -5.0, 0.0), target=(0.0, -10.0, 0.0))  # looking away
+    _, missed = render(empty, [OBJ])
+    assert missed["normal_iterations"] == 0 and missed["iterations"] == 0
 
 
 def test_progress_reaches_completion_and_is_monotonic():
