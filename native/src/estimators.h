@@ -2,22 +2,23 @@
  * against the vf/vm vector interface; included by kernel.h, compiled once per SIMD flavour. */
 
 /* Natural logarithm of positive normal floats (Cephes' logf polynomial, ~1 ulp). Our own,
- * built only from the interface's correctly rounded operations, so both kernels agree. */
+ * built only from the interface's correctly rounded operations, so every kernel agrees. The
+ * polynomial P(f) = c0 + c1 f + ... + c8 f^8 by Estrin's scheme, not Horner's: the march's step
+ * waits on this logarithm (the escape estimate), and Horner's nine dependent FMAs are twice the
+ * latency of Estrin's four levels (issue 21). */
 static inline vf v_log(vf x)
 {
     vf m, e;
     v_frexp_centered(x, &m, &e);
     vf f = v_sub(m, v_set1(1.0f));
     vf z = v_mul(f, f);
-    vf y = v_set1(7.0376836292E-2f);
-    y = v_fma(y, f, v_set1(-1.1514610310E-1f));
-    y = v_fma(y, f, v_set1(1.1676998740E-1f));
-    y = v_fma(y, f, v_set1(-1.2420140846E-1f));
-    y = v_fma(y, f, v_set1(1.4249322787E-1f));
-    y = v_fma(y, f, v_set1(-1.6668057665E-1f));
-    y = v_fma(y, f, v_set1(2.0000714765E-1f));
-    y = v_fma(y, f, v_set1(-2.4999993993E-1f));
-    y = v_fma(y, f, v_set1(3.3333331174E-1f));
+    vf z2 = v_mul(z, z), z4 = v_mul(z2, z2);
+    vf p01 = v_fma(v_set1(-2.4999993993E-1f), f, v_set1(3.3333331174E-1f));
+    vf p23 = v_fma(v_set1(-1.6668057665E-1f), f, v_set1(2.0000714765E-1f));
+    vf p45 = v_fma(v_set1(-1.2420140846E-1f), f, v_set1(1.4249322787E-1f));
+    vf p67 = v_fma(v_set1(-1.1514610310E-1f), f, v_set1(1.1676998740E-1f));
+    vf p03 = v_fma(p23, z, p01), p47 = v_fma(p67, z, p45);
+    vf y = v_fma(v_set1(7.0376836292E-2f), z4, v_fma(p47, z2, p03));
     y = v_mul(v_mul(y, f), z);
     y = v_fma(e, v_set1(-2.12194440e-4f), y);
     y = v_fma(z, v_set1(-0.5f), y);
