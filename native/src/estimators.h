@@ -650,16 +650,17 @@ static inline __attribute__((always_inline)) void de_quaternion_inline(const ub_
     de_quaternion_body(p, lanes, 0, a, b, c, d, 0, dist, iters, x);
 }
 
-/* Two Julia estimates at once, points (a0, b0, c0, d0) and (a1, b1, c1, d1) in the same lanes: the
- * two sides of a central difference. One loop carries both orbits, so the second one's operations
- * fill the vector ports while the first waits on its loop-carried path (de_quaternion: a -> b -> a,
+/* Two Julia estimates at once, points z0 in the lanes lanes[0] and z1 in lanes[1]: the two sides of
+ * a central difference, or two packets of rays (march.h, march_julia_pair). One loop carries both
+ * orbits, so the second one's operations fill the vector ports while the first waits on its
+ * loop-carried path (de_quaternion: a -> b -> a,
  * about 10 cycles an iteration where the ports allow about 8.5). Each orbit is de_quaternion's
  * with want = 0, operation for operation, so each estimate has de_julia's bits; the loop runs until
  * both orbits' lanes have escaped (an escaped lane's z iterates on, harmless: r2 and the
  * derivative froze at its escape, as in de_quaternion). Issue 21: the normals' six estimates a hit
  * take three of these. */
-static __attribute__((flatten)) void de_julia_pair(const ub_de_params *p, vm lanes, const vf z0[4], const vf z1[4],
-                                                   vf dist[2], vf iters[2])
+static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de_params *p, const vm lanes[2],
+        const vf z0[4], const vf z1[4], vf dist[2], vf iters[2])
 {
     const vf four = v_set1(4.0f);
     const vf *z[2] = {z0, z1};
@@ -670,7 +671,7 @@ static __attribute__((flatten)) void de_julia_pair(const ub_de_params *p, vm lan
         quaternion_norms(z[k], &v2[k], &r2[k]);
         dr2[k] = v_set1(1.0f);
         n[k] = v_set1(0.0f);
-        active[k] = lanes;
+        active[k] = lanes[k];
         b2[k] = v_add(z[k][1], z[k][1]);
         c2[k] = v_add(z[k][2], z[k][2]);
         d2[k] = v_add(z[k][3], z[k][3]);
@@ -695,6 +696,14 @@ static __attribute__((flatten)) void de_julia_pair(const ub_de_params *p, vm lan
         dist[k] = v_select(escaped, escape_estimate(r2[k], v_log(r2[k]), dr2[k]), v_set1(0.0f));
         iters[k] = n[k];
     }
+}
+
+/* de_julia_pair_body out of line, both orbits in the same lanes: the normals' differences. */
+static __attribute__((flatten)) void de_julia_pair(const ub_de_params *p, vm lanes, const vf z0[4], const vf z1[4],
+                                                   vf dist[2], vf iters[2])
+{
+    const vm both[2] = {lanes, lanes};
+    de_julia_pair_body(p, both, z0, z1, dist, iters);
 }
 
 /* Whether de() of these parameters is de_julia: a Julia set not on a deep-zoom path. */

@@ -160,6 +160,68 @@ static int primary_packet(const ub_scene *sc, const ub_de_params *dps, const sam
     return seen;
 }
 
+/* primary_packet for the packets at x and x + UB_LANES (n[0] and n[1] pixels) at once, through
+ * trace_pair: the same rays, hits and counts. */
+static void primary_pair(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int x, int y,
+                         const int n[2], ub_packet_rays pr[2], ub_trace_result tr[2], int seen[2], ub_counters *cnt)
+{
+    const ub_hit_buffer *hb = sc->hits;
+    int lanes[2];
+    for (int j = 0; j < 2; j++) {
+        int px = hb->x0 + hb->step * (x + j * UB_LANES), py = hb->y0 + hb->step * y;
+        seen[j] = camera_packet(sc->camera, px, py, hb->step, n[j], sp, 1, &pr[j]);
+        if (sc->cones)
+            cone_start_rays(sc, px, py, hb->step, n[j], &pr[j]);
+        lanes[j] = ((1 << n[j]) - 1) & seen[j];
+    }
+    trace_pair(sc, dps, pr, lanes, sc->shading->sea ? UB_TRACE_SEA : 0, tr, cnt);
+    for (int j = 0; j < 2; j++) {
+        uint64_t steps = 0;
+        for (int l = 0; l < n[j]; l++)
+            steps += (uint64_t)tr[j].steps[l];
+        cnt->rays += (uint64_t)n[j];
+        cnt->steps += steps;
+    }
+}
+
+/* The camera rays' hits of the packet at (x, y) of n pixels, as primary_packet gives them. Where
+ * pairs pay (pair_traceable), the packet at x + UB_LANES is traced with it and kept in `next`
+ * for the following call, which takes it from there. */
+typedef struct {
+    ub_packet_rays pr;
+    ub_trace_result tr;
+    int seen, x, y; /* x < 0: nothing kept */
+} ub_next_packet;
+
+static int primary_packet_paired(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int pairs,
+                                 int x, int y, int n, int x_end, ub_packet_rays *pr, ub_trace_result *tr,
+                                 ub_next_packet *next, ub_counters *cnt)
+{
+    if (next->x == x && next->y == y) {
+        next->x = -1;
+        *pr = next->pr;
+        *tr = next->tr;
+        return next->seen;
+    }
+    if (pairs && x + UB_LANES < x_end) {
+        int rest = x_end - x - UB_LANES;
+        const int n2[2] = {n, rest < UB_LANES ? rest : UB_LANES};
+        ub_packet_rays prs[2];
+        ub_trace_result trs[2];
+        int seen[2];
+        primary_pair(sc, dps, sp, x, y, n2, prs, trs, seen, cnt);
+        *pr = prs[0];
+        *tr = trs[0];
+        next->pr = prs[1];
+        next->tr = trs[1];
+        next->seen = seen[1];
+        next->x = x + UB_LANES;
+        next->y = y;
+        return seen[0];
+    }
+    return primary_packet(sc, dps, sp, x, y, n, pr, tr, cnt);
+}
+
 /* The de_params of the scene's objects, for one tile. */
 static void tile_de_params(const ub_scene *sc, ub_de_params dps[UB_MAX_OBJECTS])
 {
@@ -178,6 +240,9 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
     const sample_point sp = sample_point_of(sample);
     if (sc->cones)
         cone_fill(sc, dps, tx0, ty0, tx1, ty1, cnt);
+    const int pairs = pair_traceable(sc, dps);
+    ub_next_packet next;
+    next.x = -1;
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
             if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
@@ -185,7 +250,7 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
             int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
             ub_packet_rays pr;
             ub_trace_result tr;
-            primary_packet(sc, dps, &sp, x, y, n, &pr, &tr, cnt);
+            primary_packet_paired(sc, dps, &sp, pairs, x, y, n, tx1, &pr, &tr, &next, cnt);
             ub_hit *h = &hb->hits[(size_t)y * hb->w + x];
             for (int l = 0; l < n; l++)
                 h[l] = (ub_hit){tr.t[l], tr.iters[l], tr.dist[l], tr.steps[l], (int16_t)tr.object[l],
@@ -1077,6 +1142,9 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
     const sample_point sp = sample_point_of(sample);
     if (trace_first && sc->cones)
         cone_fill(sc, dps, tx0, ty0, tx1, ty1, cnt);
+    const int pairs = pair_traceable(sc, dps);
+    ub_next_packet next;
+    next.x = -1;
 
     for (int y = ty0; y < ty1; y++) {
         for (int x = tx0; x < tx1; x += UB_LANES) {
@@ -1088,7 +1156,7 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
             ub_paths ps;
             int seen;
             if (trace_first) {
-                seen = primary_packet(sc, dps, &sp, x, y, n, &pr, &tr, cnt);
+                seen = primary_packet_paired(sc, dps, &sp, pairs, x, y, n, tx1, &pr, &tr, &next, cnt);
                 if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                     return;
                 /* Padding lanes repeat the last real pixel, as buffered_hits gives them. */

@@ -335,6 +335,122 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     }
 }
 
+/* Two packets of camera rays against one Julia set at once (issue 21): march_rays with plain
+ * steps and refined hits (relax 0, no penumbra, refine_hits 1) for each, in one loop whose
+ * estimates are de_julia_pair's, so that one packet's iteration and step fill the vector ports
+ * while the other's wait on their loop-carried paths (a single packet's march is a chain of
+ * dependent operations: the iteration, the logarithm, the step, the next point). Each lane's
+ * operations are march_rays', in the same order, so each ray has the same bits and counts. A
+ * packet with no lane left marching rides along at no cost: the other one takes de_julia's
+ * single estimate. */
+static inline __attribute__((always_inline)) void julia_estimates(const ub_de_params *dp, const vm lanes[2],
+                                                                  const vf z[2][4], vf dist[2], vf iters[2])
+{
+    const int busy0 = m_bits(lanes[0]) != 0, busy1 = m_bits(lanes[1]) != 0;
+    if (busy0 && busy1) {
+        de_julia_pair_body(dp, lanes, z[0], z[1], dist, iters);
+    } else {
+        const int k = busy1;
+        ub_de_extra unused;
+        de_quaternion_inline(dp, lanes[k], z[k][0], z[k][1], z[k][2], z[k][3], &dist[k], &iters[k], &unused);
+    }
+}
+
+static void march_julia_pair(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
+                             const ub_object_rays *const r[2], const vf t_base[2], const int lanes[2], ub_march_result res[2],
+                             vf *const steps[2], ub_counters *cnt)
+{
+    vf q0[2][4], qd[2][4], s_max[2], tb[2], s[2], prev[2], iter_sum[2], dist[2], iters[2], dw[2];
+    vm active[2], hit[2];
+    const vf sigma = v_set1((float)o->sigma_min);
+    const vf factor = v_set1((float)o->step_factor);
+    const vf max_step = v_set1((float)o->max_step);
+    for (int k = 0; k < 2; k++) {
+        for (int c = 0; c < 4; c++) {
+            q0[k][c] = v_load(r[k]->q_enter[c]);
+            qd[k][c] = v_load(r[k]->q_dir[c]);
+        }
+        s_max[k] = v_load(r[k]->s_max);
+        tb[k] = v_add(v_load(r[k]->t_enter), t_base[k]);
+        s[k] = prev[k] = iter_sum[k] = dist[k] = iters[k] = dw[k] = v_set1(0.0f);
+        active[k] = m_from_bits(lanes[k]);
+        hit[k] = m_false();
+        res[k].hit = res[k].out_of_steps = m_false();
+        res[k].s = res[k].iters = res[k].dist = v_set1(0.0f);
+    }
+    for (int step = 0; step < o->max_steps && m_bits(m_or(active[0], active[1])); step++) {
+        if (cancelled(sc))
+            return;
+        vf z[2][4], new_dist[2], new_iters[2];
+        for (int k = 0; k < 2; k++)
+            for (int c = 0; c < 4; c++)
+                z[k][c] = v_fma(s[k], qd[k][c], q0[k][c]);
+        julia_estimates(dp, active, z, new_dist, new_iters);
+        for (int k = 0; k < 2; k++) {
+            dist[k] = v_select(active[k], new_dist[k], dist[k]);
+            iters[k] = v_select(active[k], new_iters[k], iters[k]);
+            dw[k] = v_mul(dist[k], sigma);
+            vf eps = threshold(dp, v_add(tb[k], s[k]));
+            *steps[k] = v_count(*steps[k], active[k]);
+            iter_sum[k] = v_add(iter_sum[k], v_select(active[k], iters[k], v_set1(0.0f)));
+            vm is_hit = m_and(active[k], v_lt(dw[k], eps));
+            vf factored = v_mul(dw[k], factor), least = v_min(dw[k], resolution(s[k]));
+            vf next = v_add(s[k], v_max(v_min(factored, max_step), least));
+            is_hit = m_or(is_hit, m_and(active[k], v_le(next, s[k])));
+            hit[k] = m_or(hit[k], is_hit);
+            active[k] = m_andnot(is_hit, active[k]);
+            prev[k] = v_select(active[k], s[k], prev[k]);
+            s[k] = v_select(active[k], next, s[k]);
+            active[k] = m_and(active[k], v_le(s[k], s_max[k]));
+        }
+    }
+    vm refine[2];
+    vf lo[2], hi[2];
+    for (int k = 0; k < 2; k++) {
+        res[k].hit = hit[k];
+        res[k].out_of_steps = active[k];
+        res[k].iters = iters[k];
+        res[k].dist = dw[k];
+        refine[k] = hit[k];
+        lo[k] = prev[k];
+        hi[k] = s[k];
+    }
+    /* march_rays' bisection, both packets at once. */
+    const vf fraction = v_set1(1.0f / 32.0f);
+    for (int b = 0; b < o->bisection_steps && !cancelled(sc); b++) {
+        vf z[2][4], mid[2], bdist[2], biters[2];
+        for (int k = 0; k < 2; k++) {
+            vf width_limit = v_max(v_mul(threshold(dp, v_add(tb[k], hi[k])), fraction), resolution(hi[k]));
+            refine[k] = m_and(refine[k], v_gt(v_sub(hi[k], lo[k]), width_limit));
+        }
+        if (!m_bits(m_or(refine[0], refine[1])))
+            break;
+        for (int k = 0; k < 2; k++) {
+            mid[k] = v_mul(v_add(lo[k], hi[k]), v_set1(0.5f));
+            for (int c = 0; c < 4; c++)
+                z[k][c] = v_fma(mid[k], qd[k][c], q0[k][c]);
+        }
+        julia_estimates(dp, refine, z, bdist, biters);
+        for (int k = 0; k < 2; k++) {
+            vf bdw = v_mul(bdist[k], sigma);
+            vm inside = m_and(refine[k], v_lt(bdw, threshold(dp, v_add(tb[k], mid[k]))));
+            vm outside = m_andnot(inside, refine[k]);
+            iter_sum[k] = v_add(iter_sum[k], v_select(refine[k], biters[k], v_set1(0.0f)));
+            hi[k] = v_select(inside, mid[k], hi[k]);
+            lo[k] = v_select(outside, mid[k], lo[k]);
+            res[k].iters = v_select(inside, biters[k], res[k].iters);
+            res[k].dist = v_select(inside, bdw, res[k].dist);
+        }
+    }
+    for (int k = 0; k < 2; k++) {
+        res[k].s = hi[k];
+        float it[UB_LANES];
+        v_store(it, iter_sum[k]);
+        for (int l = 0; l < UB_LANES; l++)
+            cnt->iterations += (uint64_t)it[l];
+    }
+}
+
 /* What a packet of rays hit. */
 typedef struct {
     float t[UB_LANES], iters[UB_LANES], dist[UB_LANES], steps[UB_LANES];
@@ -360,75 +476,154 @@ enum {
     UB_TRACE_ANY_HIT = 1 << 1, /* shadow rays: stop at the first hit found, not the nearest */
 };
 
+/* A packet's trace through the objects so far: the nearest hit of each lane, where marches gave up,
+ * the steps and the penumbra, and the lanes still looking (trace below). */
+typedef struct {
+    float best_t[UB_LANES], gave_up_t[UB_LANES];
+    vf steps, pen;
+    int open;
+} ub_trace_state;
+
+/* trace's start: no hit yet but the sea's (UB_TRACE_SEA). */
+static void trace_begin(const ub_scene *sc, const ub_packet_rays *pr, int lanes, unsigned flags,
+                        ub_trace_result *out, ub_trace_state *ts)
+{
+    const int sea = (flags & UB_TRACE_SEA) != 0;
+    for (int l = 0; l < UB_LANES; l++) {
+        ts->gave_up_t[l] = INFINITY;
+        out->object[l] = UB_HIT_NONE;
+        out->iters[l] = out->dist[l] = 0.0f;
+        out->penumbra[l] = 1.0f;
+        ts->best_t[l] = (float)pr->t_max[l];
+        if (sea && ((lanes >> l) & 1)) {
+            double o[3] = {pr->origin[0][l], pr->origin[1][l], pr->origin[2][l]};
+            double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+            double ts_ = sea_t(sc->shading, o, d);
+            if (ts_ >= pr->t_min[l] && ts_ <= pr->t_max[l]) {
+                ts->best_t[l] = (float)ts_;
+                out->object[l] = UB_HIT_SEA;
+            }
+        }
+    }
+    ts->steps = v_set1(0.0f);
+    ts->pen = v_set1(1.0f);
+    ts->open = lanes;
+}
+
+/* Object k's march (res, over the lanes `active` of orays) into the nearest hits so far. */
+static void trace_take(int k, const ub_object_rays *orays, int active, const ub_march_result *res, int any_hit,
+                       ub_trace_result *out, ub_trace_state *ts)
+{
+    int hits = m_bits(res->hit) & active, gave_up = m_bits(res->out_of_steps) & active;
+    float s[UB_LANES], it[UB_LANES], di[UB_LANES];
+    v_store(s, res->s);
+    for (int l = 0; l < UB_LANES; l++)
+        if ((gave_up >> l) & 1)
+            ts->gave_up_t[l] = fminf(ts->gave_up_t[l], orays->t_enter[l] + s[l]);
+    if (!hits)
+        return;
+    v_store(it, res->iters);
+    v_store(di, res->dist);
+    for (int l = 0; l < UB_LANES; l++) {
+        if (!((hits >> l) & 1))
+            continue;
+        float t = orays->t_enter[l] + s[l];
+        if (!(t < ts->best_t[l] || out->object[l] == UB_HIT_NONE))
+            continue;
+        ts->best_t[l] = t;
+        out->object[l] = k;
+        out->iters[l] = it[l];
+        out->dist[l] = di[l];
+        if (any_hit)
+            ts->open &= ~(1 << l);
+    }
+}
+
+/* trace's end: the nearest hits, steps, penumbra and whether a march gave up in front of them. */
+static void trace_end(const ub_trace_state *ts, ub_trace_result *out)
+{
+    v_store(out->steps, ts->steps);
+    float pb[UB_LANES];
+    v_store(pb, ts->pen);
+    for (int l = 0; l < UB_LANES; l++) {
+        /* A hit nearer than where a march gave up shows what it would have shown anyway. */
+        out->out_of_steps[l] = out->object[l] == UB_HIT_NONE ? ts->gave_up_t[l] < INFINITY
+                                                             : ts->gave_up_t[l] < ts->best_t[l];
+        out->t[l] = ts->best_t[l];
+        float p = pb[l] < 0.0f ? 0.0f : (pb[l] > 1.0f ? 1.0f : pb[l]);
+        out->penumbra[l] = out->object[l] == UB_HIT_NONE ? p : 0.0f;
+    }
+}
+
 /* Trace a packet through the union of the scene's fractal objects (and the sea with
  * UB_TRACE_SEA): the nearest hit wins, and each object's march stops at the nearest hit found
  * so far. Shadow rays pass UB_TRACE_ANY_HIT and `tan_angle` (NULL: hard). */
 static void trace(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays *pr, int lanes,
                   unsigned flags, const float *tan_angle, ub_trace_result *out, ub_counters *cnt)
 {
-    const int sea = (flags & UB_TRACE_SEA) != 0, any_hit = (flags & UB_TRACE_ANY_HIT) != 0;
-    float best_t[UB_LANES], gave_up_t[UB_LANES];
-    for (int l = 0; l < UB_LANES; l++) {
-        gave_up_t[l] = INFINITY;
-        out->object[l] = UB_HIT_NONE;
-        out->iters[l] = out->dist[l] = 0.0f;
-        out->penumbra[l] = 1.0f;
-        best_t[l] = (float)pr->t_max[l];
-        if (sea && ((lanes >> l) & 1)) {
-            double o[3] = {pr->origin[0][l], pr->origin[1][l], pr->origin[2][l]};
-            double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-            double ts = sea_t(sc->shading, o, d);
-            if (ts >= pr->t_min[l] && ts <= pr->t_max[l]) {
-                best_t[l] = (float)ts;
-                out->object[l] = UB_HIT_SEA;
-            }
-        }
-    }
-    vf steps = v_set1(0.0f);
-    vf pen = v_set1(1.0f);
+    const int any_hit = (flags & UB_TRACE_ANY_HIT) != 0;
+    ub_trace_state ts;
+    trace_begin(sc, pr, lanes, flags, out, &ts);
     vf tanv = tan_angle ? v_load(tan_angle) : v_set1(0.0f);
     vf tb = v_load(pr->t_base);
-    int open = lanes;
-    for (int k = 0; k < sc->object_count && open; k++) {
+    for (int k = 0; k < sc->object_count && ts.open; k++) {
         const ub_object *o = &sc->objects[k];
         ub_object_rays orays;
-        int active = object_rays(o, pr, best_t, open, &orays);
+        int active = object_rays(o, pr, ts.best_t, ts.open, &orays);
         if (!active)
             continue;
         ub_march_result res;
-        march(sc, o, &dps[k], &orays, tb, active, !any_hit, &res, &steps, tan_angle ? &pen : NULL, tanv, cnt);
-        int hits = m_bits(res.hit) & active, gave_up = m_bits(res.out_of_steps) & active;
-        float s[UB_LANES], it[UB_LANES], di[UB_LANES];
-        v_store(s, res.s);
-        for (int l = 0; l < UB_LANES; l++)
-            if ((gave_up >> l) & 1)
-                gave_up_t[l] = fminf(gave_up_t[l], orays.t_enter[l] + s[l]);
-        if (!hits)
-            continue;
-        v_store(it, res.iters);
-        v_store(di, res.dist);
-        for (int l = 0; l < UB_LANES; l++) {
-            if (!((hits >> l) & 1))
-                continue;
-            float t = orays.t_enter[l] + s[l];
-            if (!(t < best_t[l] || out->object[l] == UB_HIT_NONE))
-                continue;
-            best_t[l] = t;
-            out->object[l] = k;
-            out->iters[l] = it[l];
-            out->dist[l] = di[l];
-            if (any_hit)
-                open &= ~(1 << l);
+        march(sc, o, &dps[k], &orays, tb, active, !any_hit, &res, &ts.steps, tan_angle ? &ts.pen : NULL, tanv, cnt);
+        trace_take(k, &orays, active, &res, any_hit, out, &ts);
+    }
+    trace_end(&ts, out);
+}
+
+/* Whether trace_pair gains over two traces: the kernel inlines the Julia set's march and every
+ * object is a Julia set on no deep-zoom path. */
+static int pair_traceable(const ub_scene *sc, const ub_de_params *dps)
+{
+    if (!UB_INLINE_JULIA_MARCH)
+        return 0;
+    for (int k = 0; k < sc->object_count; k++)
+        if (!julia_only(&dps[k]))
+            return 0;
+    return 1;
+}
+
+/* trace() of two packets of camera rays (no UB_TRACE_ANY_HIT, no penumbra) at once:
+ * each Julia set's march takes both packets' rays together (march_julia_pair). The same hits and
+ * counts as two trace() calls. */
+static void trace_pair(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays pr[2], const int lanes[2],
+                       unsigned flags, ub_trace_result out[2], ub_counters *cnt)
+{
+    ub_trace_state ts[2];
+    vf tb[2];
+    for (int j = 0; j < 2; j++) {
+        trace_begin(sc, &pr[j], lanes[j], flags, &out[j], &ts[j]);
+        tb[j] = v_load(pr[j].t_base);
+    }
+    for (int k = 0; k < sc->object_count && (ts[0].open || ts[1].open); k++) {
+        const ub_object *o = &sc->objects[k];
+        ub_object_rays orays[2];
+        int active[2];
+        ub_march_result res[2];
+        for (int j = 0; j < 2; j++)
+            active[j] = object_rays(o, &pr[j], ts[j].best_t, ts[j].open, &orays[j]);
+        if (active[0] && active[1] && julia_only(&dps[k])) {
+            const ub_object_rays *const both[2] = {&orays[0], &orays[1]};
+            vf *const steps[2] = {&ts[0].steps, &ts[1].steps};
+            march_julia_pair(sc, o, &dps[k], both, tb, active, res, steps, cnt);
+        } else {
+            for (int j = 0; j < 2; j++)
+                if (active[j])
+                    march(sc, o, &dps[k], &orays[j], tb[j], active[j], 1, &res[j], &ts[j].steps, NULL,
+                          v_set1(0.0f), cnt);
         }
+        for (int j = 0; j < 2; j++)
+            if (active[j])
+                trace_take(k, &orays[j], active[j], &res[j], 0, &out[j], &ts[j]);
     }
-    v_store(out->steps, steps);
-    float pb[UB_LANES];
-    v_store(pb, pen);
-    for (int l = 0; l < UB_LANES; l++) {
-        /* A hit nearer than where a march gave up shows what it would have shown anyway. */
-        out->out_of_steps[l] = out->object[l] == UB_HIT_NONE ? gave_up_t[l] < INFINITY : gave_up_t[l] < best_t[l];
-        out->t[l] = best_t[l];
-        float p = pb[l] < 0.0f ? 0.0f : (pb[l] > 1.0f ? 1.0f : pb[l]);
-        out->penumbra[l] = out->object[l] == UB_HIT_NONE ? p : 0.0f;
-    }
+    for (int j = 0; j < 2; j++)
+        trace_end(&ts[j], &out[j]);
 }
