@@ -20,7 +20,6 @@ UNBOUND_KEEP_FRAME_MEMORY=0 turns this off.
 """
 import ctypes
 import os
-import platform
 import sys
 
 # mallopt's parameter numbers (glibc's malloc.h).
@@ -33,10 +32,19 @@ TRIM_THRESHOLD = 256 << 20
 _state = {"done": False, "kept": False}
 
 
+def glibc():
+    """Whether this process runs on glibc (its confstr answers; platform.libc_ver would scan the
+    executable, which in Blender can be hundreds of megabytes)."""
+    try:
+        return os.confstr("CS_GNU_LIBC_VERSION").startswith("glibc")
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
 def wanted():
     """Whether this process should keep frame memory: Linux, glibc, not opted out, and the user
     has not tuned glibc's allocator through its own environment variables."""
-    if not sys.platform.startswith("linux") or platform.libc_ver()[0] != "glibc":
+    if not sys.platform.startswith("linux") or not glibc():
         return False
     if os.environ.get("UNBOUND_KEEP_FRAME_MEMORY", "1").strip() in ("0", "false", "no", "off"):
         return False
