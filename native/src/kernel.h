@@ -184,15 +184,16 @@ static void primary_pair(const ub_scene *sc, const ub_de_params *dps, const samp
     }
 }
 
-/* The camera rays' hits of the packet at (x, y) of n pixels, as primary_packet gives them. Where
- * pairs pay (pair_traceable), the packet at x + UB_LANES is traced with it and kept in `next`
- * for the following call, which takes it from there. */
+/* A row's next packet, traced with the one before it (primary_packet_paired). */
 typedef struct {
     ub_packet_rays pr;
     ub_trace_result tr;
     int seen, x, y; /* x < 0: nothing kept */
 } ub_next_packet;
 
+/* The camera rays' hits of the packet at (x, y) of n pixels, as primary_packet gives them. Where
+ * pairs pay (pair_traceable), the packet at x + UB_LANES is traced with it and kept in `next`
+ * for the following call, which takes it from there. */
 static int primary_packet_paired(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int pairs,
                                  int x, int y, int n, int x_end, ub_packet_rays *pr, ub_trace_result *tr,
                                  ub_next_packet *next, ub_counters *cnt)
