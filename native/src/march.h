@@ -342,7 +342,9 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
  * dependent operations: the iteration, the logarithm, the step, the next point). Each lane's
  * operations are march_rays', in the same order, so each ray has the same bits and counts. A
  * packet with no lane left marching rides along at no cost: the other one takes de_julia's
- * single estimate. */
+ * single estimate. A change to march_rays' plain step or bisection belongs here too: the
+ * identity tests (tile widths that pair against ones that do not, the portable kernel against
+ * the vector ones) fail otherwise. */
 static inline __attribute__((always_inline)) void julia_estimates(const ub_de_params *dp, const vm lanes[2],
                                                                   const vf z[2][4], vf dist[2], vf iters[2])
 {
