@@ -124,8 +124,10 @@ def test_exception_in_progress_propagates_and_stops():
     def boom(_):
         raise RuntimeError("user callback failed")
 
+    # Polled every millisecond: at the default interval this render can end before the first poll
+    # on a fast machine (it did, at 640x480, on a Zen 5 once the camera rays went two packets at a time).
     with pytest.raises(RuntimeError, match="user callback failed"):
-        render(cam, [dict(OBJ, max_iterations=200)], ["alpha"], progress=boom)
+        render(cam, [dict(OBJ, max_iterations=200)], ["alpha"], progress=boom, poll_interval=0.001)
 
 
 def test_gil_released_during_render():
