@@ -159,154 +159,231 @@ static inline __attribute__((always_inline)) void march_de(const ub_de_params *d
     }
 }
 
-/* March one object's rays by unbounding spheres (section 3): step by the distance estimate
- * (times step_factor, at most max_step), a hit when it drops below the threshold. Section 3.3's
- * thin sets come for free: the threshold is the minimum increment, so a dendrite thinner than
- * it still stops the ray. With `penumbra` (shadow rays), also tracks min d / (t tan(angle)):
- * how nearly the ray missed, relative to the light's apparent size (soft shadows). */
-static inline __attribute__((always_inline)) void march_rays(const ub_scene *sc, const ub_object *o,
-        const ub_de_params *dp, const ub_object_rays *r, vf t_base, int lanes, int refine_hits, const int relax,
-        const int julia, ub_march_result *res, vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
-{
+/* One packet's march against one object (march_rays below): the rays, where each lane is, and
+ * what it has found. A lane's s and prev freeze when it stops (hit or out of the ball): after the
+ * march they are the hit and the last sample before it, without per-step bookkeeping. */
+typedef struct {
     vf q0[4], qd[4];
-    for (int k = 0; k < 4; k++) {
-        q0[k] = v_load(r->q_enter[k]);
-        qd[k] = v_load(r->q_dir[k]);
-    }
-    const vf te = v_load(r->t_enter), s_max = v_load(r->s_max);
-    const vf tb = v_add(te, t_base);
-    const vf sigma = v_set1((float)o->sigma_min);
-    const vf factor = v_set1((float)o->step_factor);
-    const vf max_step = v_set1((float)o->max_step);
-    /* A lane's s and prev freeze when it stops (hit or out of the ball): after the loop they are
-     * the hit and the last sample before it, without per-step bookkeeping. */
-    vf s = v_set1(0.0f), prev = s, iter_sum = s, dist = s, iters = s, dw = s;
-    vm active = m_from_bits(lanes), hit = m_false();
+    vf te, tb, s_max;
+    vf s, prev, iter_sum, dist, iters, dw;
+    vm active, hit;
     /* Over-relaxed steps (`relax`, issue 21; Keinert et al. 2014, enhanced sphere tracing): a lane
      * steps UB_OVER_RELAXATION times the plain step while the unbounding spheres at consecutive
      * samples overlap, (s - prev) <= dw(prev) + dw(s): their union then holds the whole segment, so
      * no point of the set lies between the two samples (section 3's certificate, from two balls
      * instead of one). Where they do not overlap, the lane goes back to prev, discards the sample
      * at s, and takes plain steps from there on. */
-    vf omega = v_set1(relax ? UB_OVER_RELAXATION : 1.0f);
-    vf prev_dw = s, prev_dist = s, prev_iters = s, last_step = s;
-    vm relaxed_last = m_false(); /* lanes whose last step was over-relaxed: their sample is checked */
+    vf omega, prev_dw, prev_dist, prev_iters, last_step;
+    vm relaxed_last; /* lanes whose last step was over-relaxed: their sample is checked */
+    /* The bisection of the hits: the bracket [lo, hi] and the lanes still refining. */
+    vf lo, hi;
+    vm refine;
+} ub_march_state;
+
+/* The constants of one object's march. */
+typedef struct {
+    vf sigma, factor, max_step;
+} ub_march_step;
+
+static inline __attribute__((always_inline)) void march_begin(const ub_object_rays *r, vf t_base, int lanes,
+                                                              const int relax, ub_march_state *m,
+                                                              ub_march_result *res)
+{
+    for (int k = 0; k < 4; k++) {
+        m->q0[k] = v_load(r->q_enter[k]);
+        m->qd[k] = v_load(r->q_dir[k]);
+    }
+    m->te = v_load(r->t_enter);
+    m->s_max = v_load(r->s_max);
+    m->tb = v_add(m->te, t_base);
+    m->s = m->prev = m->iter_sum = m->dist = m->iters = m->dw = v_set1(0.0f);
+    m->active = m_from_bits(lanes);
+    m->hit = m_false();
+    m->omega = v_set1(relax ? UB_OVER_RELAXATION : 1.0f);
+    m->prev_dw = m->prev_dist = m->prev_iters = m->last_step = v_set1(0.0f);
+    m->relaxed_last = m_false();
     /* A cancelled march returns no hits (its caller still reads the result). */
-    res->hit = res->out_of_steps = hit;
-    res->s = res->iters = res->dist = s;
-    for (int step = 0; step < o->max_steps && m_bits(active); step++) {
-        if (cancelled(sc))
-            return;
-        /* Only the lanes still marching are evaluated; a stopped lane keeps its last estimate and
-         * escape count (those at its frozen s, where the hit lanes stopped). */
-        vf new_dist, new_iters;
-        march_de(dp, julia, active, v_fma(s, qd[0], q0[0]), v_fma(s, qd[1], q0[1]), v_fma(s, qd[2], q0[2]),
-                 v_fma(s, qd[3], q0[3]), &new_dist, &new_iters);
-        dist = v_select(active, new_dist, dist);
-        iters = v_select(active, new_iters, iters);
-        dw = v_mul(dist, sigma);
-        vf eps = threshold(dp, v_add(tb, s));
-        if (relax) {
-            vm gap = m_and(relaxed_last, v_gt(last_step, v_add(prev_dw, dw)));
-            if (m_bits(gap)) { /* back to prev and its estimate; plain steps from there on */
-                s = v_select(gap, prev, s);
-                dist = v_select(gap, prev_dist, dist);
-                iters = v_select(gap, prev_iters, iters);
-                dw = v_select(gap, prev_dw, dw);
-                eps = threshold(dp, v_add(tb, s));
-                omega = v_select(gap, v_set1(1.0f), omega);
-            }
+    res->hit = res->out_of_steps = m_false();
+    res->s = res->iters = res->dist = v_set1(0.0f);
+}
+
+/* The quaternion points at distance s from entry along each lane's ray. */
+static inline __attribute__((always_inline)) void march_point(const ub_march_state *m, vf s, vf z[4])
+{
+    for (int k = 0; k < 4; k++)
+        z[k] = v_fma(s, m->qd[k], m->q0[k]);
+}
+
+/* One step of the march from the estimate at s (new_dist, new_iters of the lanes still marching):
+ * a hit when it drops below the threshold, else a step by the estimate (times step_factor, at most
+ * max_step). Section 3.3's thin sets come for free: the threshold is the minimum increment, so a
+ * dendrite thinner than it still stops the ray. With `penumbra` (shadow rays), also tracks
+ * min d / (t tan(angle)): how nearly the ray missed, relative to the light's apparent size. */
+static inline __attribute__((always_inline)) void march_advance(const ub_de_params *dp, const ub_march_step *c,
+                                                                const int relax, vf new_dist, vf new_iters,
+                                                                vf *steps, vf *penumbra, vf tan_angle,
+                                                                ub_march_state *m)
+{
+    /* A stopped lane keeps its last estimate and escape count (those at its frozen s). */
+    m->dist = v_select(m->active, new_dist, m->dist);
+    m->iters = v_select(m->active, new_iters, m->iters);
+    m->dw = v_mul(m->dist, c->sigma);
+    vf eps = threshold(dp, v_add(m->tb, m->s));
+    if (relax) {
+        vm gap = m_and(m->relaxed_last, v_gt(m->last_step, v_add(m->prev_dw, m->dw)));
+        if (m_bits(gap)) { /* back to prev and its estimate; plain steps from there on */
+            m->s = v_select(gap, m->prev, m->s);
+            m->dist = v_select(gap, m->prev_dist, m->dist);
+            m->iters = v_select(gap, m->prev_iters, m->iters);
+            m->dw = v_select(gap, m->prev_dw, m->dw);
+            eps = threshold(dp, v_add(m->tb, m->s));
+            m->omega = v_select(gap, v_set1(1.0f), m->omega);
         }
-        *steps = v_count(*steps, active);
-        iter_sum = v_add(iter_sum, v_select(active, iters, v_set1(0.0f)));
-        vm is_hit = m_and(active, v_lt(dw, eps));
-        /* Issue 18: a step moves s by at least its resolution wherever the estimate allows it
-         * (a step_factor or max_step below the resolution would stall the ray otherwise), never
-         * by more than the estimate, so it never passes the set. Where the estimate itself is so
-         * small that s + step rounds back to s (a fixed epsilon of 1e-7 a few units into the
-         * ball), the ray can get no closer in float32: the estimate is below half an ulp of s
-         * (a step of at least min(d, resolution) did not move it), s is the closest point float32
-         * represents, and that is the hit (at the resolution limit), not a ray that stalls until
-         * it runs out of steps and shows the background where the set is. Rays that still move
-         * march on exactly as before. */
-        vf factored = v_mul(dw, factor), least = v_min(dw, resolution(s));
-        vf step_len = v_max(v_min(factored, max_step), least);
-        vm relaxing = m_false();
-        if (relax) {
-            /* A relaxed step past s_max (out of the ball, or past the light) would end where no
-             * sample checks it: only the sphere at s would certify it, which a relaxed step
-             * outruns. Such a step is taken plainly. */
-            vf longer = v_max(v_min(v_mul(factored, omega), max_step), least);
-            relaxing = m_and(v_gt(omega, v_set1(1.0f)), v_le(v_add(s, longer), s_max));
-            step_len = v_select(relaxing, longer, step_len);
-        }
-        vf next = v_add(s, step_len);
-        is_hit = m_or(is_hit, m_and(active, v_le(next, s)));
-        if (penumbra) {
-            /* NaN (0/0 for a point source at the origin) leaves the minimum unchanged. */
-            vf ratio = v_div(v_sub(dw, eps), v_mul(tan_angle, v_add(te, s)));
-            *penumbra = v_select(active, v_min(ratio, *penumbra), *penumbra);
-        }
-        hit = m_or(hit, is_hit);
-        active = m_andnot(is_hit, active);
-        if (relax) {
-            prev_dw = v_select(active, dw, prev_dw);
-            prev_dist = v_select(active, dist, prev_dist);
-            prev_iters = v_select(active, iters, prev_iters);
-            last_step = v_select(active, v_sub(next, s), last_step);
-            relaxed_last = m_and(active, relaxing);
-        }
-        prev = v_select(active, s, prev);
-        s = v_select(active, next, s);
-        active = m_and(active, v_le(s, s_max));
     }
-    /* dist and iters are every lane's last evaluation, at its frozen s: a hit lane's estimate and
-     * escape count. */
-    res->hit = hit;
-    /* A cancel returns above, so lanes still active here ran out of steps (where s froze). */
-    res->out_of_steps = active;
-    res->iters = iters;
-    res->dist = dw;
-    /* Optional refinement: bisect between the last sample outside the threshold and the hit.
-     * Shadow rays only ask whether something is hit, not where.
-     * Issue 21: a lane stops refining, before bisection_steps (the maximum), once its bracket is
-     * narrower than what the pixel can show:
-     *   - 1/32 of the hit threshold there. The threshold is the resolution the render asks for
-     *     (the pixel footprint / detail, or the fixed epsilon): every point within it of the set
-     *     is surface, so the drawn surface is only defined to a threshold; placing it to 1/32 of
-     *     one moves a hit by at most 1/(32 detail) of a pixel's footprint (measured on the peer
-     *     scene: relative depth within 1.2e-4 of the float64 march's for 99 % of the hits, 2.2e-5
-     *     of the full bisection's, and 0.6 % of the pixels' colours change by more than 1/255);
-     *   - float32's resolution of s (resolution()): below it the midpoint rounds to lo or hi and
-     *     further steps change nothing.
-     * The initial bracket, the last step, is about a threshold long or more (the sample before
-     * the hit was not within one), so with step_factor 1 about 5 or more of the default 10 steps
-     * remain: on the peer scene 13.6 of its 81.7 iterations of f per ray are saved. */
-    vm refine = refine_hits ? hit : m_false();
-    vf lo = prev, hi = s;
-    const vf fraction = v_set1(1.0f / 32.0f);
-    for (int k = 0; k < o->bisection_steps && !cancelled(sc); k++) {
-        vf width_limit = v_max(v_mul(threshold(dp, v_add(tb, hi)), fraction), resolution(hi));
-        refine = m_and(refine, v_gt(v_sub(hi, lo), width_limit));
-        if (!m_bits(refine))
-            break;
-        vf mid = v_mul(v_add(lo, hi), v_set1(0.5f));
-        march_de(dp, julia, refine, v_fma(mid, qd[0], q0[0]), v_fma(mid, qd[1], q0[1]),
-                 v_fma(mid, qd[2], q0[2]), v_fma(mid, qd[3], q0[3]), &dist, &iters);
-        vf dw = v_mul(dist, sigma);
-        vm inside = m_and(refine, v_lt(dw, threshold(dp, v_add(tb, mid))));
-        vm outside = m_andnot(inside, refine);
-        iter_sum = v_add(iter_sum, v_select(refine, iters, v_set1(0.0f)));
-        hi = v_select(inside, mid, hi);
-        lo = v_select(outside, mid, lo);
-        res->iters = v_select(inside, iters, res->iters);
-        res->dist = v_select(inside, dw, res->dist);
+    *steps = v_count(*steps, m->active);
+    m->iter_sum = v_add(m->iter_sum, v_select(m->active, m->iters, v_set1(0.0f)));
+    vm is_hit = m_and(m->active, v_lt(m->dw, eps));
+    /* Issue 18: a step moves s by at least its resolution wherever the estimate allows it
+     * (a step_factor or max_step below the resolution would stall the ray otherwise), never
+     * by more than the estimate, so it never passes the set. Where the estimate itself is so
+     * small that s + step rounds back to s (a fixed epsilon of 1e-7 a few units into the
+     * ball), the ray can get no closer in float32: the estimate is below half an ulp of s
+     * (a step of at least min(d, resolution) did not move it), s is the closest point float32
+     * represents, and that is the hit (at the resolution limit), not a ray that stalls until
+     * it runs out of steps and shows the background where the set is. Rays that still move
+     * march on exactly as before. */
+    vf factored = v_mul(m->dw, c->factor), least = v_min(m->dw, resolution(m->s));
+    vf step_len = v_max(v_min(factored, c->max_step), least);
+    vm relaxing = m_false();
+    if (relax) {
+        /* A relaxed step past s_max (out of the ball, or past the light) would end where no
+         * sample checks it: only the sphere at s would certify it, which a relaxed step
+         * outruns. Such a step is taken plainly. */
+        vf longer = v_max(v_min(v_mul(factored, m->omega), c->max_step), least);
+        relaxing = m_and(v_gt(m->omega, v_set1(1.0f)), v_le(v_add(m->s, longer), m->s_max));
+        step_len = v_select(relaxing, longer, step_len);
     }
-    res->s = hi;
+    vf next = v_add(m->s, step_len);
+    is_hit = m_or(is_hit, m_and(m->active, v_le(next, m->s)));
+    if (penumbra) {
+        /* NaN (0/0 for a point source at the origin) leaves the minimum unchanged. */
+        vf ratio = v_div(v_sub(m->dw, eps), v_mul(tan_angle, v_add(m->te, m->s)));
+        *penumbra = v_select(m->active, v_min(ratio, *penumbra), *penumbra);
+    }
+    m->hit = m_or(m->hit, is_hit);
+    m->active = m_andnot(is_hit, m->active);
+    if (relax) {
+        m->prev_dw = v_select(m->active, m->dw, m->prev_dw);
+        m->prev_dist = v_select(m->active, m->dist, m->prev_dist);
+        m->prev_iters = v_select(m->active, m->iters, m->prev_iters);
+        m->last_step = v_select(m->active, v_sub(next, m->s), m->last_step);
+        m->relaxed_last = m_and(m->active, relaxing);
+    }
+    m->prev = v_select(m->active, m->s, m->prev);
+    m->s = v_select(m->active, next, m->s);
+    m->active = m_and(m->active, v_le(m->s, m->s_max));
+}
+
+/* After the steps: what the march found, and the bisection's bracket. dist and iters are every
+ * lane's last evaluation, at its frozen s: a hit lane's estimate and escape count. A cancel
+ * returns before this, so lanes still active ran out of steps (where s froze).
+ * Optional refinement: bisect between the last sample outside the threshold and the hit.
+ * Shadow rays only ask whether something is hit, not where.
+ * Issue 21: a lane stops refining, before bisection_steps (the maximum), once its bracket is
+ * narrower than what the pixel can show:
+ *   - 1/32 of the hit threshold there. The threshold is the resolution the render asks for
+ *     (the pixel footprint / detail, or the fixed epsilon): every point within it of the set
+ *     is surface, so the drawn surface is only defined to a threshold; placing it to 1/32 of
+ *     one moves a hit by at most 1/(32 detail) of a pixel's footprint (measured on the peer
+ *     scene: relative depth within 1.2e-4 of the float64 march's for 99 % of the hits, 2.2e-5
+ *     of the full bisection's, and 0.6 % of the pixels' colours change by more than 1/255);
+ *   - float32's resolution of s (resolution()): below it the midpoint rounds to lo or hi and
+ *     further steps change nothing.
+ * The initial bracket, the last step, is about a threshold long or more (the sample before
+ * the hit was not within one), so with step_factor 1 about 5 or more of the default 10 steps
+ * remain: on the peer scene 13.6 of its 81.7 iterations of f per ray are saved. */
+static inline __attribute__((always_inline)) void march_found(int refine_hits, ub_march_state *m,
+                                                              ub_march_result *res)
+{
+    res->hit = m->hit;
+    res->out_of_steps = m->active;
+    res->iters = m->iters;
+    res->dist = m->dw;
+    m->refine = refine_hits ? m->hit : m_false();
+    m->lo = m->prev;
+    m->hi = m->s;
+}
+
+/* The lanes whose bracket is still wider than the pixel can show (march_found). */
+static inline __attribute__((always_inline)) int bisect_wanted(const ub_de_params *dp, ub_march_state *m)
+{
+    vf width_limit = v_max(v_mul(threshold(dp, v_add(m->tb, m->hi)), v_set1(1.0f / 32.0f)), resolution(m->hi));
+    m->refine = m_and(m->refine, v_gt(v_sub(m->hi, m->lo), width_limit));
+    return m_bits(m->refine) != 0;
+}
+
+static inline __attribute__((always_inline)) vf bisect_mid(const ub_march_state *m)
+{
+    return v_mul(v_add(m->lo, m->hi), v_set1(0.5f));
+}
+
+/* The bracket's half that holds the hit, from the estimate at mid. */
+static inline __attribute__((always_inline)) void bisect_take(const ub_de_params *dp, const ub_march_step *c,
+                                                              vf mid, vf dist, vf iters, ub_march_state *m,
+                                                              ub_march_result *res)
+{
+    vf dw = v_mul(dist, c->sigma);
+    vm inside = m_and(m->refine, v_lt(dw, threshold(dp, v_add(m->tb, mid))));
+    vm outside = m_andnot(inside, m->refine);
+    m->iter_sum = v_add(m->iter_sum, v_select(m->refine, iters, v_set1(0.0f)));
+    m->hi = v_select(inside, mid, m->hi);
+    m->lo = v_select(outside, mid, m->lo);
+    res->iters = v_select(inside, iters, res->iters);
+    res->dist = v_select(inside, dw, res->dist);
+}
+
+static inline __attribute__((always_inline)) void march_end(const ub_march_state *m, ub_march_result *res,
+                                                            ub_counters *cnt)
+{
+    res->s = m->hi;
     float it[UB_LANES];
-    v_store(it, iter_sum);
+    v_store(it, m->iter_sum);
     for (int l = 0; l < UB_LANES; l++)
         cnt->iterations += (uint64_t)it[l];
+}
+
+static inline ub_march_step march_step_of(const ub_object *o)
+{
+    return (ub_march_step){v_set1((float)o->sigma_min), v_set1((float)o->step_factor), v_set1((float)o->max_step)};
+}
+
+/* March one object's rays by unbounding spheres (section 3), march_advance's steps, then
+ * bisection of the hits (refine_hits). Only the lanes still marching are evaluated. */
+static inline __attribute__((always_inline)) void march_rays(const ub_scene *sc, const ub_object *o,
+        const ub_de_params *dp, const ub_object_rays *r, vf t_base, int lanes, int refine_hits, const int relax,
+        const int julia, ub_march_result *res, vf *steps, vf *penumbra, vf tan_angle, ub_counters *cnt)
+{
+    const ub_march_step c = march_step_of(o);
+    ub_march_state m;
+    march_begin(r, t_base, lanes, relax, &m, res);
+    for (int step = 0; step < o->max_steps && m_bits(m.active); step++) {
+        if (cancelled(sc))
+            return;
+        vf z[4], new_dist, new_iters;
+        march_point(&m, m.s, z);
+        march_de(dp, julia, m.active, z[0], z[1], z[2], z[3], &new_dist, &new_iters);
+        march_advance(dp, &c, relax, new_dist, new_iters, steps, penumbra, tan_angle, &m);
+    }
+    march_found(refine_hits, &m, res);
+    for (int k = 0; k < o->bisection_steps && !cancelled(sc); k++) {
+        if (!bisect_wanted(dp, &m))
+            break;
+        vf z[4], dist, iters, mid = bisect_mid(&m);
+        march_point(&m, mid, z);
+        march_de(dp, julia, m.refine, z[0], z[1], z[2], z[3], &dist, &iters);
+        bisect_take(dp, &c, mid, dist, iters, &m, res);
+    }
+    march_end(&m, res, cnt);
 }
 
 /* march_rays with `relax` known when compiled, so that the plain march carries none of the
@@ -335,16 +412,14 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     }
 }
 
-/* Two packets of camera rays against one Julia set at once (issue 21): march_rays with plain
- * steps and refined hits (relax 0, no penumbra, refine_hits 1) for each, in one loop whose
- * estimates are de_julia_pair's, so that one packet's iteration and step fill the vector ports
- * while the other's wait on their loop-carried paths (a single packet's march is a chain of
- * dependent operations: the iteration, the logarithm, the step, the next point). Each lane's
- * operations are march_rays', in the same order, so each ray has the same bits and counts. A
- * packet with no lane left marching rides along at no cost: the other one takes de_julia's
- * single estimate. A change to march_rays' plain step or bisection belongs here too: the
- * identity tests (tile widths that pair against ones that do not, the portable kernel against
- * the vector ones) fail otherwise. */
+/* Two packets of camera rays against one Julia set at once (issue 21): march_rays (plain steps,
+ * refined hits, no penumbra) for each, through the same steps (march_advance, bisect_take), in one
+ * loop whose estimates are de_julia_pair's, so that one packet's iteration and step fill the
+ * vector ports while the other's wait on their loop-carried paths (a single packet's march is a
+ * chain of dependent operations: the iteration, the logarithm, the step, the next point). Each
+ * lane's operations are march_rays', in the same order, so each ray has the same bits and counts.
+ * A packet with no lane left marching rides along at no cost: the other one takes de_julia's
+ * single estimate. */
 static inline __attribute__((always_inline)) void julia_estimates(const ub_de_params *dp, const vm lanes[2],
                                                                   const vf z[2][4], vf dist[2], vf iters[2])
 {
@@ -359,98 +434,44 @@ static inline __attribute__((always_inline)) void julia_estimates(const ub_de_pa
 }
 
 static void march_julia_pair(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
-                             const ub_object_rays *const r[2], const vf t_base[2], const int lanes[2], ub_march_result res[2],
-                             vf *const steps[2], ub_counters *cnt)
+                             const ub_object_rays *const r[2], const vf t_base[2], const int lanes[2],
+                             ub_march_result res[2], vf *const steps[2], ub_counters *cnt)
 {
-    vf q0[2][4], qd[2][4], s_max[2], tb[2], s[2], prev[2], iter_sum[2], dist[2], iters[2], dw[2];
-    vm active[2], hit[2];
-    const vf sigma = v_set1((float)o->sigma_min);
-    const vf factor = v_set1((float)o->step_factor);
-    const vf max_step = v_set1((float)o->max_step);
-    for (int k = 0; k < 2; k++) {
-        for (int c = 0; c < 4; c++) {
-            q0[k][c] = v_load(r[k]->q_enter[c]);
-            qd[k][c] = v_load(r[k]->q_dir[c]);
-        }
-        s_max[k] = v_load(r[k]->s_max);
-        tb[k] = v_add(v_load(r[k]->t_enter), t_base[k]);
-        s[k] = prev[k] = iter_sum[k] = dist[k] = iters[k] = dw[k] = v_set1(0.0f);
-        active[k] = m_from_bits(lanes[k]);
-        hit[k] = m_false();
-        res[k].hit = res[k].out_of_steps = m_false();
-        res[k].s = res[k].iters = res[k].dist = v_set1(0.0f);
-    }
-    for (int step = 0; step < o->max_steps && m_bits(m_or(active[0], active[1])); step++) {
+    const ub_march_step c = march_step_of(o);
+    /* Two locals, not an array of two: the compiler keeps each one's fields in registers. */
+    ub_march_state m0, m1;
+    ub_march_state *const m[2] = {&m0, &m1};
+    for (int k = 0; k < 2; k++)
+        march_begin(r[k], t_base[k], lanes[k], 0, m[k], &res[k]);
+    for (int step = 0; step < o->max_steps && m_bits(m_or(m0.active, m1.active)); step++) {
         if (cancelled(sc))
             return;
         vf z[2][4], new_dist[2], new_iters[2];
+        const vm active[2] = {m0.active, m1.active};
         for (int k = 0; k < 2; k++)
-            for (int c = 0; c < 4; c++)
-                z[k][c] = v_fma(s[k], qd[k][c], q0[k][c]);
+            march_point(m[k], m[k]->s, z[k]);
         julia_estimates(dp, active, z, new_dist, new_iters);
-        for (int k = 0; k < 2; k++) {
-            dist[k] = v_select(active[k], new_dist[k], dist[k]);
-            iters[k] = v_select(active[k], new_iters[k], iters[k]);
-            dw[k] = v_mul(dist[k], sigma);
-            vf eps = threshold(dp, v_add(tb[k], s[k]));
-            *steps[k] = v_count(*steps[k], active[k]);
-            iter_sum[k] = v_add(iter_sum[k], v_select(active[k], iters[k], v_set1(0.0f)));
-            vm is_hit = m_and(active[k], v_lt(dw[k], eps));
-            vf factored = v_mul(dw[k], factor), least = v_min(dw[k], resolution(s[k]));
-            vf next = v_add(s[k], v_max(v_min(factored, max_step), least));
-            is_hit = m_or(is_hit, m_and(active[k], v_le(next, s[k])));
-            hit[k] = m_or(hit[k], is_hit);
-            active[k] = m_andnot(is_hit, active[k]);
-            prev[k] = v_select(active[k], s[k], prev[k]);
-            s[k] = v_select(active[k], next, s[k]);
-            active[k] = m_and(active[k], v_le(s[k], s_max[k]));
-        }
+        for (int k = 0; k < 2; k++)
+            march_advance(dp, &c, 0, new_dist[k], new_iters[k], steps[k], NULL, v_set1(0.0f), m[k]);
     }
-    vm refine[2];
-    vf lo[2], hi[2];
-    for (int k = 0; k < 2; k++) {
-        res[k].hit = hit[k];
-        res[k].out_of_steps = active[k];
-        res[k].iters = iters[k];
-        res[k].dist = dw[k];
-        refine[k] = hit[k];
-        lo[k] = prev[k];
-        hi[k] = s[k];
-    }
-    /* march_rays' bisection, both packets at once. */
-    const vf fraction = v_set1(1.0f / 32.0f);
+    for (int k = 0; k < 2; k++)
+        march_found(1, m[k], &res[k]);
     for (int b = 0; b < o->bisection_steps && !cancelled(sc); b++) {
-        vf z[2][4], mid[2], bdist[2], biters[2];
-        for (int k = 0; k < 2; k++) {
-            vf width_limit = v_max(v_mul(threshold(dp, v_add(tb[k], hi[k])), fraction), resolution(hi[k]));
-            refine[k] = m_and(refine[k], v_gt(v_sub(hi[k], lo[k]), width_limit));
-        }
-        if (!m_bits(m_or(refine[0], refine[1])))
+        const int wanted0 = bisect_wanted(dp, &m0), wanted1 = bisect_wanted(dp, &m1);
+        if (!wanted0 && !wanted1)
             break;
+        vf z[2][4], mid[2], dist[2], iters[2];
+        const vm refine[2] = {m0.refine, m1.refine};
         for (int k = 0; k < 2; k++) {
-            mid[k] = v_mul(v_add(lo[k], hi[k]), v_set1(0.5f));
-            for (int c = 0; c < 4; c++)
-                z[k][c] = v_fma(mid[k], qd[k][c], q0[k][c]);
+            mid[k] = bisect_mid(m[k]);
+            march_point(m[k], mid[k], z[k]);
         }
-        julia_estimates(dp, refine, z, bdist, biters);
-        for (int k = 0; k < 2; k++) {
-            vf bdw = v_mul(bdist[k], sigma);
-            vm inside = m_and(refine[k], v_lt(bdw, threshold(dp, v_add(tb[k], mid[k]))));
-            vm outside = m_andnot(inside, refine[k]);
-            iter_sum[k] = v_add(iter_sum[k], v_select(refine[k], biters[k], v_set1(0.0f)));
-            hi[k] = v_select(inside, mid[k], hi[k]);
-            lo[k] = v_select(outside, mid[k], lo[k]);
-            res[k].iters = v_select(inside, biters[k], res[k].iters);
-            res[k].dist = v_select(inside, bdw, res[k].dist);
-        }
+        julia_estimates(dp, refine, z, dist, iters);
+        for (int k = 0; k < 2; k++)
+            bisect_take(dp, &c, mid[k], dist[k], iters[k], m[k], &res[k]);
     }
-    for (int k = 0; k < 2; k++) {
-        res[k].s = hi[k];
-        float it[UB_LANES];
-        v_store(it, iter_sum[k]);
-        for (int l = 0; l < UB_LANES; l++)
-            cnt->iterations += (uint64_t)it[l];
-    }
+    for (int k = 0; k < 2; k++)
+        march_end(m[k], &res[k], cnt);
 }
 
 /* What a packet of rays hit. */
