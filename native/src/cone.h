@@ -80,7 +80,7 @@ static double camera_speed(const ub_camera *cam)
         for (int r = 0; r < 3; r++)
             frobenius += m[r][a] * m[r][a];
         for (int b = a + 1; b < 3; b++)
-            skew = fmax(skew, fabs(m[0][a] * m[0][b] + m[1][a] * m[1][b] + m[2][a] * m[2][b]));
+            skew = ub_fmax(skew, fabs(m[0][a] * m[0][b] + m[1][a] * m[1][b] + m[2][a] * m[2][b]));
     }
     return skew < 1e-9 ? 1.0 + 1e-6 : sqrt(frobenius) * (1.0 + 1e-6);
 }
@@ -102,8 +102,8 @@ static void block_cone(const ub_scene *sc, const double (*ball_centre)[3], const
         projection_ray_view_kind(cam, orthographic, x0 + size * (corner & 1), y0 + size * (corner >> 1), ov, dv,
                                  &t0, &t1);
         view_to_world(cam->cam_to_world, ov, dv, o, d);
-        spread0 = fmax(spread0, distance3(o, origin));
-        spread1 = fmax(spread1, distance3(d, axis));
+        spread0 = ub_fmax(spread0, distance3(o, origin));
+        spread1 = ub_fmax(spread1, distance3(d, axis));
     }
     for (int i = 0; i < 3; i++) {
         bc->origin[i][l] = origin[i];
@@ -121,7 +121,7 @@ static void block_cone(const ub_scene *sc, const double (*ball_centre)[3], const
     bc->beyond[l] = along > 0.0 ? 0.0 : HUGE_VAL;
     for (int k = 0; k < sc->object_count && along > 0.0; k++)
         if (ball_radius[k] >= 0.0)
-            bc->beyond[l] = fmax(bc->beyond[l],
+            bc->beyond[l] = ub_fmax(bc->beyond[l],
                                  (distance3(origin, ball_centre[k]) + ball_radius[k] + bc->spread0[l]) / along * (1.0 + 1e-6));
 }
 
@@ -175,10 +175,10 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
             double d = dist[l];
             /* As the march steps (march.h); a non-finite estimate bounds nothing. */
             if (d > 0.0 && d < INFINITY)
-                bound = fmax(bound, fmin(d * o->sigma_min * o->step_factor, o->max_step));
+                bound = ub_fmax(bound, ub_fmin(d * o->sigma_min * o->step_factor, o->max_step));
         }
-        bound -= (double)e0[l] + (double)e1[l] * (t[l] + fmax(bound, 0.0));
-        clear[l] = fmin(clear[l], bound);
+        bound -= (double)e0[l] + (double)e1[l] * (t[l] + ub_fmax(bound, 0.0));
+        clear[l] = ub_fmin(clear[l], bound);
     }
 }
 
@@ -296,6 +296,6 @@ static void cone_start_rays(const ub_scene *sc, int px, int py, int step, int n,
     for (int l = 0; l < UB_LANES; l++) {
         double start;
         __atomic_load(&cc->start[cone_index(cc, px + step * (l < n ? l : n - 1), py)], &start, __ATOMIC_RELAXED);
-        pr->t_min[l] = fmax(pr->t_min[l], start);
+        pr->t_min[l] = ub_fmax(pr->t_min[l], start);
     }
 }

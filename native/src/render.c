@@ -405,6 +405,9 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         stats->counters.iterations += c->iterations;
         stats->counters.normal_iterations += c->normal_iterations;
         stats->counters.out_of_steps += c->out_of_steps;
+        if (c->has_depth && (!stats->counters.has_depth || c->nearest_depth < stats->counters.nearest_depth))
+            stats->counters.nearest_depth = c->nearest_depth;
+        stats->counters.has_depth |= c->has_depth;
     }
     stats->threads = started ? started : 1;
     stats->isa = ub_isa_names[kernel];

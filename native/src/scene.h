@@ -350,6 +350,11 @@ typedef struct {
     /* Camera rays of the film (each sample) that ran out of max_steps before they hit or left
      * the fractal: drawn as whatever lies behind, the background mostly (issue 18). */
     uint64_t out_of_steps;
+    /* The nearest hit's depth in the depth pass (sample 0; has_depth: any hit written), for the
+     * precision check's footprint ratio: kept while the passes are written, so that the check
+     * needs no pass over the whole frame afterwards (issue 21). */
+    int has_depth;
+    float nearest_depth;
 } ub_counters;
 
 /* What the camera ray of one pixel (one sample) hit: written by the primary phase, read by the
