@@ -13,16 +13,22 @@ Scenes (bench_core.py's peer scene, quaternion Julia set mu = -0.2+0.8i, 16 iter
         reflect, sea, fog, glow, samples4, n_potential, n_zbuffer, n_analytic).
 
 A build is a directory holding the unpacked wheel (`build/wheel` after `make wheel`; copy it
-aside before rebuilding the other):
+aside before rebuilding the other). Each build is run from --copies fresh copies of it, taken in
+turn: on this project's virtual machines the same bytes measured up to 6.5 % apart from one file
+to another (the file `make wheel` wrote against a copy of it; two copies 2 % apart, every round,
+either order), which is where the copy's pages happen to lie in memory, not the build.
 
-    python bench/bench_ab.py OLD/wheel NEW/wheel [--scene peer|all|NAME] [--rounds 5] [--threads 1]
+    python bench/bench_ab.py OLD/wheel NEW/wheel [--scene peer|all|NAME] [--rounds 6] [--threads 1] [--copies 3]
 """
 from __future__ import annotations
 
 import argparse
+import os
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 
 CHILD = r'''
 import sys, time, math, hashlib
@@ -54,19 +60,23 @@ def main(argv=None):
     ap.add_argument("build_a")
     ap.add_argument("build_b")
     ap.add_argument("--scene", default="peer", help="peer, or a row of bench_effects.py (all, hard, ...)")
-    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--rounds", type=int, default=6)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--copies", type=int, default=3, help="fresh copies of each build, run in turn")
     args = ap.parse_args(argv)
     bench_dir = __file__.rsplit("/", 1)[0] if "/" in __file__ else "."
     builds = (args.build_a, args.build_b)
     cpu = {b: [] for b in builds}
     digest = {}
-    for _ in range(args.rounds):
-        for b in builds:
-            out = subprocess.run([sys.executable, "-c", CHILD, b, bench_dir, args.scene, str(args.threads)],
-                                 capture_output=True, text=True, check=True).stdout.split()
-            cpu[b].append(float(out[0]))
-            digest[b] = out[1]
+    with tempfile.TemporaryDirectory(dir=os.path.dirname(os.path.abspath(args.build_a))) as tmp:
+        copies = {b: [shutil.copytree(b, os.path.join(tmp, "%d-%d" % (i, k))) for k in range(args.copies)]
+                  for i, b in enumerate(builds)}
+        for r in range(args.rounds):
+            for b in builds:
+                out = subprocess.run([sys.executable, "-c", CHILD, copies[b][r % args.copies], bench_dir, args.scene,
+                                      str(args.threads)], capture_output=True, text=True, check=True).stdout.split()
+                cpu[b].append(float(out[0]))
+                digest[b] = out[1]
     for b in builds:
         v = cpu[b]
         print("%s: median %.4f s CPU (%.4f-%.4f), passes %s" % (b, statistics.median(v), min(v), max(v), digest[b]))

@@ -764,23 +764,38 @@ static int add_background(const ub_scene *sc, int bounce, int alive, const ub_pa
                           const ub_trace_result *tr, ub_paths *ps)
 {
     int hit_lanes = 0;
+    for (int l = 0; l < UB_LANES; l++)
+        hit_lanes |= (tr->object[l] != UB_HIT_NONE) << l;
+    hit_lanes &= alive;
+    const int missed = alive & ~hit_lanes;
+    if (!sc->world) {
+        /* The film's background colour alone: the same sums for every missed lane, as one loop
+         * of selects the compiler vectorises (issue 21: the lane-by-lane calls were 4 % of the
+         * peer render, two thirds of whose pixels miss). */
+        const ub_film *film = sc->film;
+        for (int i = 0; i < 3; i++)
+            for (int l = 0; l < UB_LANES; l++) {
+                const int m = (missed >> l) & 1;
+                const float add = ps->W[l] * ps->tint[i][l] * film->background[i];
+                ps->L[i][l] = m ? ps->L[i][l] + add : ps->L[i][l];
+                if (bounce > 0) {
+                    const float add_r = ps->Wr[l] * ps->tint[i][l] * film->background[i];
+                    ps->R[i][l] = m ? ps->R[i][l] + add_r : ps->R[i][l];
+                }
+            }
+        return hit_lanes;
+    }
     for (int l = 0; l < UB_LANES; l++) {
-        if (!((alive >> l) & 1))
+        if (!((missed >> l) & 1))
             continue;
-        if (tr->object[l] != UB_HIT_NONE) {
-            hit_lanes |= 1 << l;
-            continue;
-        }
         const double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
         float seen[3];
         background_along(sc, bounce, d, seen);
-        if (sc->world) {
-            /* A path's diffuse or glossy bounce ray: world_light sampled the map for the rest. */
-            if (ps->bounce_density[l] > 0.0) {
-                float share = (float)world_bounce_share(sc, d, ps->bounce_density[l]);
-                for (int i = 0; i < 3; i++)
-                    seen[i] *= share;
-            }
+        /* A path's diffuse or glossy bounce ray: world_light sampled the map for the rest. */
+        if (ps->bounce_density[l] > 0.0) {
+            float share = (float)world_bounce_share(sc, d, ps->bounce_density[l]);
+            for (int i = 0; i < 3; i++)
+                seen[i] *= share;
         }
         for (int i = 0; i < 3; i++) {
             ps->L[i][l] += ps->W[l] * ps->tint[i][l] * seen[i];
