@@ -317,7 +317,9 @@ static int zbuffer_normal(const ub_scene *sc, const sample_point *sp, int bx, in
 /* Gradient step of eq. 15, h = alpha Gamma(t), Gamma(t) = t^delta (Table 1), world units. */
 static inline double gradient_step(const ub_object *o, double t)
 {
-    return o->normal_alpha * ub_pow(t > 0.0 ? t : 0.0, o->normal_delta);
+    const double depth = t > 0.0 ? t : 0.0;
+    /* The default delta: ub_pow(depth, 1) is depth itself, without its tests per lane. */
+    return o->normal_alpha * (o->normal_delta == 1.0 ? depth : ub_pow(depth, o->normal_delta));
 }
 
 /* Per-lane state of one bounce of the shading phase. */
@@ -480,22 +482,22 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
             have_normal |= 1 << l;
         }
     }
+    /* Unit normals facing the ray, every lane at once (a loop of selects the compiler vectorises;
+     * lanes that hit nothing get the flat one): issue 21, lane by lane with branches this was a
+     * quarter of surface()'s time. */
     for (int l = 0; l < UB_LANES; l++) {
-        if (!((hit_lanes >> l) & 1))
-            continue;
-        double len2 = nw[0][l] * nw[0][l] + nw[1][l] * nw[1][l] + nw[2][l] * nw[2][l];
-        double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-        if (!((have_normal >> l) & 1) || !(len2 > 0.0) || !isfinite(len2)) {
-            /* Flat estimate (deep inside the set): face the viewer. */
-            for (int i = 0; i < 3; i++)
-                nw[i][l] = -d[i];
-            len2 = 1.0;
-        }
-        double inv = 1.0 / sqrt(len2);
-        if (nw[0][l] * d[0] + nw[1][l] * d[1] + nw[2][l] * d[2] > 0.0)
-            inv = -inv;
+        const double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+        double n[3] = {nw[0][l], nw[1][l], nw[2][l]};
+        double len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        /* Flat estimate (deep inside the set, or no normal): face the viewer. */
+        const int flat = !((have_normal >> l) & 1) || !(len2 > 0.0) || len2 == INFINITY;
         for (int i = 0; i < 3; i++)
-            sf->n[i][l] = (float)(nw[i][l] * inv);
+            n[i] = flat ? -d[i] : n[i];
+        len2 = flat ? 1.0 : len2;
+        const double inv = 1.0 / sqrt(len2);
+        const double facing = n[0] * d[0] + n[1] * d[1] + n[2] * d[2] > 0.0 ? -inv : inv;
+        for (int i = 0; i < 3; i++)
+            sf->n[i][l] = (float)(n[i] * facing);
     }
     if (sf->bsdf_lanes)
         surface_materials(sc, tr, sf);
