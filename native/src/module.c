@@ -698,17 +698,30 @@ static int parse_passes(PyObject *passes_o, ub_film *film, Py_buffer *views, int
 /* Footprint of a pixel at the nearest hit (the depth pass) over the largest world bounding radius:
  * below UB_PRECISION_LIMIT float32 no longer resolves the surface (README, Precision). None
  * without a depth pass, a hit or an object that the slice meets. The nearest hit comes from the
- * kernels (ub_counters.nearest_depth), which saw every depth they wrote. */
+ * kernels (ub_counters.nearest_depth), which saw every depth they wrote (issue 21: no pass over
+ * the whole frame); a call whose samples start past the first writes no depth (sample 0 alone
+ * does), and there the depth pass the caller kept from sample 0 is read. */
 static PyObject *footprint_ratio(const ub_camera *cam, const ub_object *objs, int count, const ub_film *film,
-                                 const ub_counters *counters)
+                                 const ub_counters *counters, int wrote_depth)
 {
-    double radius = 0.0;
+    const float *depth = film->pass[UB_PASS_DEPTH];
+    double radius = 0.0, nearest = HUGE_VAL;
     for (int k = 0; k < count; k++)
         if (objs[k].bound_radius > 0.0)
             radius = fmax(radius, objs[k].bound_radius * objs[k].sigma_max);
-    if (!film->pass[UB_PASS_DEPTH] || !counters->has_depth || !(radius > 0.0))
+    if (!depth)
         Py_RETURN_NONE;
-    return PyFloat_FromDouble(ub_pixel_footprint(cam, counters->nearest_depth) / radius);
+    if (wrote_depth) {
+        if (counters->has_depth)
+            nearest = counters->nearest_depth;
+    } else {
+        for (size_t i = 0; i < (size_t)film->w * film->h; i++)
+            if (depth[i] < 0.5f * UB_BACKGROUND_DEPTH && depth[i] < nearest)
+                nearest = depth[i];
+    }
+    if (!(radius > 0.0) || nearest == HUGE_VAL)
+        Py_RETURN_NONE;
+    return PyFloat_FromDouble(ub_pixel_footprint(cam, nearest) / radius);
 }
 
 /* world: a C-contiguous float32 (height, width, 3) array, the World's equirectangular map (scene.h,
@@ -839,7 +852,8 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
             PyErr_SetString(PyExc_ValueError, err);
             goto done;
         }
-        PyObject *ratio = footprint_ratio(&cam, objs, count, &film, &stats.counters);
+        PyObject *ratio = footprint_ratio(&cam, objs, count, &film, &stats.counters,
+                                          !(opt.sample_count > 0 && opt.first_sample > 0));
         if (!ratio)
             goto done;
         result = Py_BuildValue("{s:K,s:K,s:K,s:K,s:K,s:d,s:i,s:s,s:O,s:N}", "rays",

@@ -95,3 +95,21 @@ def test_footprint_ratio_uses_the_world_bounding_radius():
     away = make_camera(32, 32, eye=(0.0, -9.0, 0.0), target=(0.0, -20.0, 0.0))
     assert render(away, [big], ["depth"])[1]["footprint_ratio"] is None
     assert math.isclose(uc.PRECISION_LIMIT, 1e-6)
+
+
+def test_footprint_ratio_of_every_sample_of_a_render():
+    """The nearest hit is taken while the kernels write the depth pass (sample 0 alone writes it).
+    A render of several samples, one core call per sample into the same buffers (as the add-on
+    renders them), gets the same ratio from each call: the later ones read the depth that sample
+    0 left in the buffer. It equals the ratio at the depth pass's nearest hit (the unit ball:
+    bounding radius 1)."""
+    cam = make_camera(48, 40, eye=(0.0, -3.0, 0.5), fov_y=0.7)
+    ball = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=30)
+    passes = {n: np.zeros((40, 48, uc.PASS_CHANNELS[n]), np.float32) for n in ("combined", "depth")}
+    ratios = [uc.render(cam, [ball], passes, shading=dict(samples=3), sample_range=(s, 1))["footprint_ratio"]
+              for s in range(3)]
+    depth = passes["depth"][..., 0]
+    nearest = float(depth[depth < 1e9].min())
+    pixel = 2.0 / (40 * cam["projection"][1][1])
+    assert ratios[0] == pytest.approx(pixel * nearest, rel=1e-6)
+    assert ratios[1] == ratios[0] and ratios[2] == ratios[0]
