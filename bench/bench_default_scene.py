@@ -23,8 +23,9 @@ import sys
 import tempfile
 
 CHILD = r'''
-import json, os, pathlib, sys, tempfile, time
+import atexit, json, os, pathlib, shutil, sys, tempfile, time
 user = pathlib.Path(tempfile.mkdtemp(prefix="unbound-bench-user-"))
+atexit.register(shutil.rmtree, user, True)  # 15 MB a run, left behind before
 (user / "config").mkdir()
 os.environ["BLENDER_USER_RESOURCES"] = str(user)
 import bpy

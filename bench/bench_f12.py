@@ -28,8 +28,10 @@ to the animation is what saving the frames costs. Interleaved rounds, medians of
                               [--animation [--res 640x360]]
 """
 import argparse
+import atexit
 import os
 import pathlib
+import shutil
 import statistics
 import sys
 import tempfile
@@ -38,6 +40,8 @@ import time
 REPO = pathlib.Path(__file__).resolve().parents[1]
 USER = pathlib.Path(tempfile.mkdtemp(prefix="unbound-bench-user-"))
 (USER / "config").mkdir()
+# Removed at exit: each run left its 15 MB user directory in the temporary folder.
+atexit.register(shutil.rmtree, USER, True)
 os.environ["BLENDER_USER_RESOURCES"] = str(USER)  # before bpy starts: a private user directory
 
 import bpy  # noqa: E402
@@ -163,6 +167,7 @@ def animation(width, height, repeats, frames=48):
     animate_mu.set_format(scene, 'PNG')
     scene.frame_start, scene.frame_end = 1, frames
     out = tempfile.mkdtemp(prefix="unbound-bench-animation-")
+    atexit.register(shutil.rmtree, out, True)
     scene.render.filepath = os.path.join(out, "frame_####")
     vl = scene.view_layers[0]
     scenes = []

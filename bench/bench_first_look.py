@@ -20,9 +20,11 @@ DIR/<kind>.pkl, so that the same render can be replayed by the core alone (bench
     core.render(d["camera"], d["objects"], buffers, **d["options"]).
 """
 import argparse
+import atexit
 import os
 import pathlib
 import pickle
+import shutil
 import statistics
 import sys
 import tempfile
@@ -31,6 +33,8 @@ import time
 REPO = pathlib.Path(__file__).resolve().parents[1]
 USER = pathlib.Path(tempfile.mkdtemp(prefix="unbound-bench-user-"))
 (USER / "config").mkdir()
+# Removed at exit: each run left its 15 MB user directory in the temporary folder.
+atexit.register(shutil.rmtree, USER, True)
 os.environ["BLENDER_USER_RESOURCES"] = str(USER)  # before bpy starts: a private user directory
 
 import bpy  # noqa: E402
