@@ -23,11 +23,10 @@ import sys
 import tempfile
 
 CHILD = r'''
-import atexit, json, os, pathlib, shutil, sys, tempfile, time
-user = pathlib.Path(tempfile.mkdtemp(prefix="unbound-bench-user-"))
-atexit.register(shutil.rmtree, user, True)  # 15 MB a run, left behind before
-(user / "config").mkdir()
-os.environ["BLENDER_USER_RESOURCES"] = str(user)
+import json, os, sys, time
+sys.path.insert(0, os.path.join(sys.argv[1], os.pardir, "bench"))
+from blender_user import private_user_directory
+private_user_directory()  # before bpy starts
 import bpy
 sys.path.insert(0, sys.argv[1])
 from unbound_extension import ENGINE_ID, ensure_extension

@@ -20,22 +20,18 @@ DIR/<kind>.pkl, so that the same render can be replayed by the core alone (bench
     core.render(d["camera"], d["objects"], buffers, **d["options"]).
 """
 import argparse
-import atexit
 import os
 import pathlib
 import pickle
-import shutil
 import statistics
 import sys
-import tempfile
 import time
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
-USER = pathlib.Path(tempfile.mkdtemp(prefix="unbound-bench-user-"))
-(USER / "config").mkdir()
-# Removed at exit: each run left its 15 MB user directory in the temporary folder.
-atexit.register(shutil.rmtree, USER, True)
-os.environ["BLENDER_USER_RESOURCES"] = str(USER)  # before bpy starts: a private user directory
+sys.path.insert(0, str(REPO / "bench"))
+from blender_user import private_user_directory  # noqa: E402
+
+USER = private_user_directory()  # before bpy starts
 
 import bpy  # noqa: E402
 

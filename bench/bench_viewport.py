@@ -21,19 +21,17 @@ Targets: first image <= 50 ms; full refinement <= final render + 20 %.
     python bench/bench_viewport.py [--repeats 7] [--res 1280x720] [--start 8]
 """
 import argparse
-import os
 import pathlib
-import shutil
 import statistics
 import sys
-import tempfile
 import threading
 import time
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
-USER = pathlib.Path(tempfile.mkdtemp(prefix="unbound-bench-user-"))
-(USER / "config").mkdir()
-os.environ["BLENDER_USER_RESOURCES"] = str(USER)  # before bpy starts: a private user directory
+sys.path.insert(0, str(REPO / "bench"))
+from blender_user import private_user_directory  # noqa: E402
+
+USER = private_user_directory()  # before bpy starts
 
 import bpy  # noqa: E402
 
@@ -141,7 +139,6 @@ def main():
               % (TARGET_FIRST_S * 1e3, "met" if good_first else "MISSED", round((TARGET_FULL_RATIO - 1) * 100),
                  "met" if good_full else "MISSED"))
         ok = ok and good_first and good_full
-    shutil.rmtree(USER, ignore_errors=True)
     return 0 if ok else 1
 
 

@@ -28,13 +28,8 @@ def memory_status(key):
 
 
 def child(res, grid, out):
-    import tempfile
-    import atexit
-    import shutil
-    user = pathlib.Path(tempfile.mkdtemp(prefix="unbound-bench-user-"))
-    atexit.register(shutil.rmtree, user, True)  # 15 MB a run, left behind before
-    (user / "config").mkdir()
-    os.environ["BLENDER_USER_RESOURCES"] = str(user)
+    from blender_user import private_user_directory
+    private_user_directory()  # before bpy starts
     import bpy
     sys.path.insert(0, str(ROOT / "examples"))
     from unbound_extension import ensure_extension, new_scene
