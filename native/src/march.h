@@ -412,14 +412,14 @@ static void march(const ub_scene *sc, const ub_object *o, const ub_de_params *dp
     }
 }
 
-/* Two packets of camera rays against one Julia set at once (issue 21): march_rays (plain steps,
- * refined hits, no penumbra) for each, through the same steps (march_advance, bisect_take), in one
- * loop whose estimates are de_julia_pair's, so that one packet's iteration and step fill the
- * vector ports while the other's wait on their loop-carried paths (a single packet's march is a
- * chain of dependent operations: the iteration, the logarithm, the step, the next point). Each
- * lane's operations are march_rays', in the same order, so each ray has the same bits and counts.
- * A packet with no lane left marching rides along at no cost: the other one takes de_julia's
- * single estimate. */
+/* Two packets of rays against one Julia set at once (issue 21): march_rays for each (camera rays:
+ * plain steps, refined hits; hard shadow rays: any hit, over-relaxed steps as march() takes them;
+ * no penumbra), through the same steps (march_advance, bisect_take), in one loop whose estimates
+ * are de_julia_pair's, so that one packet's iteration and step fill the vector ports while the
+ * other's wait on their loop-carried paths (a single packet's march is a chain of dependent
+ * operations: the iteration, the logarithm, the step, the next point). Each lane's operations are
+ * march_rays', in the same order, so each ray has the same bits and counts. A packet with no lane
+ * left marching rides along at no cost: the other one takes de_julia's single estimate. */
 static inline __attribute__((always_inline)) void julia_estimates(const ub_de_params *dp, const vm lanes[2],
                                                                   const vf z[2][4], vf dist[2], vf iters[2])
 {
@@ -433,16 +433,16 @@ static inline __attribute__((always_inline)) void julia_estimates(const ub_de_pa
     }
 }
 
-static void march_julia_pair(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
-                             const ub_object_rays *const r[2], const vf t_base[2], const int lanes[2],
-                             ub_march_result res[2], vf *const steps[2], ub_counters *cnt)
+static inline __attribute__((always_inline)) void march_julia_pair_body(const ub_scene *sc, const ub_object *o,
+        const ub_de_params *dp, const ub_object_rays *const r[2], const vf t_base[2], const int lanes[2],
+        const int relax, const int refine_hits, ub_march_result res[2], vf *const steps[2], ub_counters *cnt)
 {
     const ub_march_step c = march_step_of(o);
     /* Two locals, not an array of two: the compiler keeps each one's fields in registers. */
     ub_march_state m0, m1;
     ub_march_state *const m[2] = {&m0, &m1};
     for (int k = 0; k < 2; k++)
-        march_begin(r[k], t_base[k], lanes[k], 0, m[k], &res[k]);
+        march_begin(r[k], t_base[k], lanes[k], relax, m[k], &res[k]);
     for (int step = 0; step < o->max_steps && m_bits(m_or(m0.active, m1.active)); step++) {
         if (cancelled(sc))
             return;
@@ -452,10 +452,10 @@ static void march_julia_pair(const ub_scene *sc, const ub_object *o, const ub_de
             march_point(m[k], m[k]->s, z[k]);
         julia_estimates(dp, active, z, new_dist, new_iters);
         for (int k = 0; k < 2; k++)
-            march_advance(dp, &c, 0, new_dist[k], new_iters[k], steps[k], NULL, v_set1(0.0f), m[k]);
+            march_advance(dp, &c, relax, new_dist[k], new_iters[k], steps[k], NULL, v_set1(0.0f), m[k]);
     }
     for (int k = 0; k < 2; k++)
-        march_found(1, m[k], &res[k]);
+        march_found(refine_hits, m[k], &res[k]);
     for (int b = 0; b < o->bisection_steps && !cancelled(sc); b++) {
         const int wanted0 = bisect_wanted(dp, &m0), wanted1 = bisect_wanted(dp, &m1);
         if (!wanted0 && !wanted1)
@@ -472,6 +472,20 @@ static void march_julia_pair(const ub_scene *sc, const ub_object *o, const ub_de
     }
     for (int k = 0; k < 2; k++)
         march_end(m[k], &res[k], cnt);
+}
+
+/* march_julia_pair_body for camera rays (plain steps, refined hits) or hard shadow rays (any hit;
+ * over-relaxed steps through an exact estimate, as march() takes them). */
+static void march_julia_pair(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
+                             const ub_object_rays *const r[2], const vf t_base[2], const int lanes[2], int any_hit,
+                             ub_march_result res[2], vf *const steps[2], ub_counters *cnt)
+{
+    if (!any_hit)
+        march_julia_pair_body(sc, o, dp, r, t_base, lanes, 0, 1, res, steps, cnt);
+    else if (o->exact)
+        march_julia_pair_body(sc, o, dp, r, t_base, lanes, 1, 0, res, steps, cnt);
+    else
+        march_julia_pair_body(sc, o, dp, r, t_base, lanes, 0, 0, res, steps, cnt);
 }
 
 /* What a packet of rays hit. */
@@ -614,17 +628,18 @@ static int pair_traceable(const ub_scene *sc, const ub_de_params *dps)
     return 1;
 }
 
-/* trace() of two packets of camera rays (no UB_TRACE_ANY_HIT, no penumbra) at once:
- * each Julia set's march takes both packets' rays together (march_julia_pair). The same hits and
- * counts as two trace() calls. */
-static void trace_pair(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays pr[2], const int lanes[2],
-                       unsigned flags, ub_trace_result out[2], ub_counters *cnt)
+/* trace() of two packets at once, camera rays or hard shadow rays (UB_TRACE_ANY_HIT, no
+ * penumbra): each Julia set's march takes both packets' rays together (march_julia_pair). The same
+ * hits and counts as two trace() calls. */
+static void trace_pair(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays *const pr[2],
+                       const int lanes[2], unsigned flags, ub_trace_result out[2], ub_counters *cnt)
 {
+    const int any_hit = (flags & UB_TRACE_ANY_HIT) != 0;
     ub_trace_state ts[2];
     vf tb[2];
     for (int j = 0; j < 2; j++) {
-        trace_begin(sc, &pr[j], lanes[j], flags, &out[j], &ts[j]);
-        tb[j] = v_load(pr[j].t_base);
+        trace_begin(sc, pr[j], lanes[j], flags, &out[j], &ts[j]);
+        tb[j] = v_load(pr[j]->t_base);
     }
     for (int k = 0; k < sc->object_count && (ts[0].open || ts[1].open); k++) {
         const ub_object *o = &sc->objects[k];
@@ -632,20 +647,20 @@ static void trace_pair(const ub_scene *sc, const ub_de_params *dps, const ub_pac
         int active[2];
         ub_march_result res[2];
         for (int j = 0; j < 2; j++)
-            active[j] = object_rays(o, &pr[j], ts[j].best_t, ts[j].open, &orays[j]);
+            active[j] = object_rays(o, pr[j], ts[j].best_t, ts[j].open, &orays[j]);
         if (active[0] && active[1] && julia_only(&dps[k])) {
             const ub_object_rays *const both[2] = {&orays[0], &orays[1]};
             vf *const steps[2] = {&ts[0].steps, &ts[1].steps};
-            march_julia_pair(sc, o, &dps[k], both, tb, active, res, steps, cnt);
+            march_julia_pair(sc, o, &dps[k], both, tb, active, any_hit, res, steps, cnt);
         } else {
             for (int j = 0; j < 2; j++)
                 if (active[j])
-                    march(sc, o, &dps[k], &orays[j], tb[j], active[j], 1, &res[j], &ts[j].steps, NULL,
+                    march(sc, o, &dps[k], &orays[j], tb[j], active[j], !any_hit, &res[j], &ts[j].steps, NULL,
                           v_set1(0.0f), cnt);
         }
         for (int j = 0; j < 2; j++)
             if (active[j])
-                trace_take(k, &orays[j], active[j], &res[j], 0, &out[j], &ts[j]);
+                trace_take(k, &orays[j], active[j], &res[j], any_hit, &out[j], &ts[j]);
     }
     for (int j = 0; j < 2; j++)
         trace_end(&ts[j], &out[j]);

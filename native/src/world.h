@@ -282,6 +282,104 @@ static double world_bounce_share(const ub_scene *sc, const double d[3], double d
     return density > 0.0 ? density / (N * p_map + density) : 0.0;
 }
 
+/* One packet of the world's light samples (world_light): sample s, technique t, of each lane of
+ * `lanes` that takes one, with its shadow ray and its weight. */
+typedef struct {
+    ub_packet_rays sr;
+    float weight[3][UB_LANES];
+    int cand; /* the lanes with a sample */
+    int traced;         /* their shadow rays traced (by direct_light, with a light's) into st */
+    ub_trace_result st;
+} ub_world_rays;
+
+/* Whether the world's light comes in one packet of shadowed samples a bounce (world_light: a
+ * constant World, one sample, no global illumination), which direct_light can then trace with a
+ * light's shadow rays (world_sample_rays with s = 0, technique 1). */
+static int world_single_packet(const ub_scene *sc, const ub_bounce_density *bounces)
+{
+    const ub_world *wd = sc->world;
+    return wd && sc->shading->world_samples == 1 && wd->sum > 0.0 && wd->w == 1 && wd->h == 1 && !bounces
+        && sc->shading->shadows != UB_SHADOWS_NONE;
+}
+
+static void world_sample_rays(const ub_scene *sc, const sample_point *sp, int px0, int py, int step, int bounce,
+                              int lanes, const ub_packet_rays *pr, const ub_trace_result *tr, const ub_surface *sf,
+                              const ub_bounce_density *bounces, int s, int technique, ub_world_rays *wr)
+{
+    const ub_shading *sh = sc->shading;
+    const ub_world *wd = sc->world;
+    const int N = sh->world_samples;
+    /* Issue 21: a constant World (a 1x1 map, the add-on's for a World of one colour) sends the
+     * same radiance from everywhere, so the integrand is L times the surface's response, which the
+     * surface's own sampling follows (exactly, for Lambert: each sample is L rho, whatever the
+     * direction, when unoccluded). Its N samples come from the surface alone: half the shadow rays
+     * of N pairs, and less noise. The same expectation; with global illumination, lanes that
+     * bounce keep the map's samples (the bounce's MIS reads them: world_bounce_share). */
+    const int constant = wd->w == 1 && wd->h == 1;
+    ub_packet_rays *sr = &wr->sr;
+    wr->cand = wr->traced = 0;
+    for (int l = 0; l < UB_LANES; l++) {
+        sr->t_base[l] = 0.0f;
+        sr->t_min[l] = sr->t_max[l] = 0.0;
+        for (int i = 0; i < 3; i++)
+            sr->origin[i][l] = sr->dir[i][l] = 0.0;
+        sr->dir[2][l] = 1.0;
+        if (!((lanes >> l) & 1))
+            continue;
+        const ub_bounce_density *bd = bounces && bounces[l].scale > 0.0 ? &bounces[l] : NULL;
+        if (bd && technique == 1)
+            continue;
+        const int surface_only = constant && !bd;
+        if (surface_only && technique == 0)
+            continue;
+        const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
+        int dim = ((bounce * N + s) * 2 + technique) * 2;
+        double r1 = random_uniform(px0 + step * l, py, sp->index, dim);
+        double r2 = random_uniform(px0 + step * l, py, sp->index, dim + 1);
+        /* A material's lobe: a dimension of its own, so Lambert's pairs keep their bits. */
+        double r_lobe = technique == 1 && b ? random_uniform(px0 + step * l, py, sp->index,
+                                                             WORLD_LOBE_DIM + bounce * N + s)
+                                            : 0.0;
+        float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
+        double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, d[3], w[3];
+        if (!world_direction_weight(wd, n, b, wo, technique, surface_only, r_lobe, r1, r2, bd, N, d, w))
+            continue;
+        /* The sea is opaque: the sky below it does not reach a point above it. */
+        if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)
+            continue;
+        wr->cand |= 1 << l;
+        for (int i = 0; i < 3; i++) {
+            wr->weight[i][l] = (float)w[i];
+            sr->origin[i][l] = sf->p[i][l] + sf->bias[l] * sf->n[i][l];
+            sr->dir[i][l] = d[i];
+        }
+        sr->t_min[l] = sf->bias[l];
+        sr->t_max[l] = 1e30;
+        sr->t_base[l] = pr->t_base[l] + tr->t[l];
+    }
+}
+
+/* The samples of wr whose shadow rays found nothing (st, or all of them without shadows) into
+ * `direct`. */
+static void world_sample_add(const ub_scene *sc, const ub_world_rays *wr, const ub_trace_result *st,
+                             float direct[3][UB_LANES], ub_counters *cnt)
+{
+    const float scale = 1.0f / (float)sc->shading->world_samples;
+    int visible = wr->cand;
+    if (st)
+        for (int l = 0; l < UB_LANES; l++) {
+            if (!((wr->cand >> l) & 1))
+                continue;
+            cnt->steps += (uint64_t)st->steps[l];
+            if (st->object[l] != UB_HIT_NONE)
+                visible &= ~(1 << l);
+        }
+    for (int l = 0; l < UB_LANES; l++)
+        if ((visible >> l) & 1)
+            for (int i = 0; i < 3; i++)
+                direct[i][l] += wr->weight[i][l] * scale;
+}
+
 /* The world's light at the hits `lanes` of one bounce, added to `direct` as direct_light adds the
  * lights' (irradiance / pi, or through a material's BSDF): world_samples pairs per hit, shadows marched as for the lights (any hit; the
  * sea blocks what comes from below it). Lane l is full-image pixel (px0 + step l, py). With
@@ -297,76 +395,19 @@ static void world_light(const ub_scene *sc, const ub_de_params *dps, const sampl
     const int N = sh->world_samples;
     if (!wd || N <= 0 || !(wd->sum > 0.0))
         return;
-    const float scale = 1.0f / (float)N;
-    /* Issue 21: a constant World (a 1x1 map, the add-on's for a World of one colour) sends the
-     * same radiance from everywhere, so the integrand is L times the surface's response, which the
-     * surface's own sampling follows (exactly, for Lambert: each sample is L rho, whatever the
-     * direction, when unoccluded). Its N samples come from the surface alone: half the shadow rays
-     * of N pairs, and less noise. The same expectation; with global illumination, lanes that
-     * bounce keep the map's samples (the bounce's MIS reads them: world_bounce_share). */
-    const int constant = wd->w == 1 && wd->h == 1;
     for (int s = 0; s < N && !cancelled(sc); s++) {
         for (int technique = 0; technique < 2; technique++) {
-            ub_packet_rays sr;
-            float weight[3][UB_LANES];
-            int cand = 0;
-            for (int l = 0; l < UB_LANES; l++) {
-                sr.t_base[l] = 0.0f;
-                sr.t_min[l] = sr.t_max[l] = 0.0;
-                for (int i = 0; i < 3; i++)
-                    sr.origin[i][l] = sr.dir[i][l] = 0.0;
-                sr.dir[2][l] = 1.0;
-                if (!((lanes >> l) & 1))
-                    continue;
-                const ub_bounce_density *bd = bounces && bounces[l].scale > 0.0 ? &bounces[l] : NULL;
-                if (bd && technique == 1)
-                    continue;
-                const int surface_only = constant && !bd;
-                if (surface_only && technique == 0)
-                    continue;
-                const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
-                int dim = ((bounce * N + s) * 2 + technique) * 2;
-                double r1 = random_uniform(px0 + step * l, py, sp->index, dim);
-                double r2 = random_uniform(px0 + step * l, py, sp->index, dim + 1);
-                /* A material's lobe: a dimension of its own, so Lambert's pairs keep their bits. */
-                double r_lobe = technique == 1 && b ? random_uniform(px0 + step * l, py, sp->index,
-                                                                     WORLD_LOBE_DIM + bounce * N + s)
-                                                    : 0.0;
-                float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
-                double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, d[3], w[3];
-                if (!world_direction_weight(wd, n, b, wo, technique, surface_only, r_lobe, r1, r2, bd, N, d, w))
-                    continue;
-                /* The sea is opaque: the sky below it does not reach a point above it. */
-                if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)
-                    continue;
-                cand |= 1 << l;
-                for (int i = 0; i < 3; i++) {
-                    weight[i][l] = (float)w[i];
-                    sr.origin[i][l] = sf->p[i][l] + sf->bias[l] * sf->n[i][l];
-                    sr.dir[i][l] = d[i];
-                }
-                sr.t_min[l] = sf->bias[l];
-                sr.t_max[l] = 1e30;
-                sr.t_base[l] = pr->t_base[l] + tr->t[l];
-            }
-            if (!cand)
+            ub_world_rays wr;
+            world_sample_rays(sc, sp, px0, py, step, bounce, lanes, pr, tr, sf, bounces, s, technique, &wr);
+            if (!wr.cand)
                 continue;
-            int visible = cand;
             if (sh->shadows != UB_SHADOWS_NONE) {
                 ub_trace_result st;
-                trace(sc, dps, &sr, cand, UB_TRACE_ANY_HIT, NULL, &st, cnt);
-                for (int l = 0; l < UB_LANES; l++) {
-                    if (!((cand >> l) & 1))
-                        continue;
-                    cnt->steps += (uint64_t)st.steps[l];
-                    if (st.object[l] != UB_HIT_NONE)
-                        visible &= ~(1 << l);
-                }
+                trace(sc, dps, &wr.sr, wr.cand, UB_TRACE_ANY_HIT, NULL, &st, cnt);
+                world_sample_add(sc, &wr, &st, direct, cnt);
+            } else {
+                world_sample_add(sc, &wr, NULL, direct, cnt);
             }
-            for (int l = 0; l < UB_LANES; l++)
-                if ((visible >> l) & 1)
-                    for (int i = 0; i < 3; i++)
-                        direct[i][l] += weight[i][l] * scale;
         }
     }
 }

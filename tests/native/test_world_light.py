@@ -179,3 +179,34 @@ def test_a_materials_alpha_shows_the_world_behind_it_not_the_background_colour()
     inner, _, _ = ball_pixels(cam)
     np.testing.assert_allclose(passes["combined"][inner][:, :3], np.broadcast_to((1 - alpha) * radiance, (inner.sum(), 3)),
                                rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_a_lights_and_the_worlds_shadow_rays_traced_together_keep_their_bits(kernel):
+    """Issue 21: with a constant World of one sample a hit and hard shadows (the add-on's defaults),
+    the AVX2 and AVX-512 kernels march the World's shadow rays together with the first light's
+    (trace_pair); the portable kernel, and the same render with the light's shadows soft, march
+    them one packet at a time. The same bits every way, with shadows in the picture: the light's
+    and the World's shadow rays each blocked at some hits and not at others."""
+    cam = make_camera(48, 36, eye=(0.4, -2.4, 1.2))
+    julia = dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=12)
+    point = dict(type="point", position=(1.2, -1.5, 1.8), color=(6.0, 6.0, 6.0))
+    common = dict(world=uniform_world((0.6, 0.7, 0.8))[:1, :1].copy(), background=(0, 0, 0, 1),
+                  names=["combined", "shadow", "diffuse"])
+    shading = dict(axle_light=0.0, world_samples=1, reflection_depth=1, lights=[point])
+    base, _ = render(cam, [julia], simd="portable", threads=1, shading=shading, **common)
+    paired, _ = render(cam, [julia], simd=kernel, threads=2, tile_size=16, shading=shading, **common)
+    for name in base:
+        assert np.array_equal(base[name].view(np.uint32), paired[name].view(np.uint32)), name
+    # A soft light's shadow rays are not paired: with radius 0 its shadows are the hard ones.
+    soft, _ = render(cam, [julia], simd=kernel, shading=dict(shading, shadows="soft", lights=[dict(point, radius=0.0)]),
+                     **common)
+    assert np.array_equal(base["combined"].view(np.uint32), soft["combined"].view(np.uint32))
+    # The light's shadows: the shadow pass (lit / unshadowed) is 0 at some hits and 1 at others.
+    shadow = base["shadow"][..., 0]
+    assert (shadow == 0.0).sum() > 20 and (shadow == 1.0).sum() > 20
+    # The World's shadows: without them (shadows off) the diffuse light is larger at some hits.
+    unshadowed, _ = render(cam, [julia], simd=kernel, shading=dict(shading, shadows="none", lights=[]), **common)
+    lit_only_world, _ = render(cam, [julia], simd=kernel, shading=dict(shading, lights=[]), **common)
+    more = unshadowed["diffuse"][..., 0] > lit_only_world["diffuse"][..., 0] * 1.01
+    assert more.sum() > 20
