@@ -661,7 +661,7 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
  * Where the world's light is one packet of shadowed samples (world_single_packet: the add-on's
  * default grey World), its shadow rays are marched with the first hard-shadowed light's in one
  * loop (issue 21: on an artist's first scene, where the shadow rays take most of the time, F12
- * 1.106x). The same sums in the same order as direct_light, then world_light. */
+ * 1.10x). The same sums in the same order as direct_light, then world_light. */
 static void lights_and_world(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int px0, int py,
                              int step, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
                              const ub_surface *sf, const ub_bounce_density *bounces, float direct[3][UB_LANES],

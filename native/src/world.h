@@ -302,6 +302,7 @@ static int world_single_packet(const ub_scene *sc, const ub_bounce_density *boun
         && sc->shading->shadows != UB_SHADOWS_NONE;
 }
 
+/* Sample s, technique `technique` of each lane of `lanes` into wr (none traced yet). */
 static void world_sample_rays(const ub_scene *sc, const sample_point *sp, int px0, int py, int step, int bounce,
                               int lanes, const ub_packet_rays *pr, const ub_trace_result *tr, const ub_surface *sf,
                               const ub_bounce_density *bounces, int s, int technique, ub_world_rays *wr)
