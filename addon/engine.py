@@ -75,8 +75,8 @@ def _fail(engine, message):
 # one per view). With several samples also the add-on's running sums and the core's hit buffer
 # (ub_hit: t, iterations, distance, steps, a 16-bit object and out-of-steps flag) for the whole
 # frame; with one sample only a band's (_render_bands: about a sixteenth of the frame, counted as
-# an eighth). All passes, one view: 36 channels, 452 bytes per pixel with several samples, 309
-# with one.
+# an eighth, and at least BAND_MIN_PIXELS). All passes, one view: 36 channels, 452 bytes per
+# pixel with several samples, 309 with one.
 HIT_BYTES = 20
 
 
@@ -85,7 +85,10 @@ def memory_estimate(width, height, wanted, views=1, samples=1):
     channels = sum(p.channels for p in wanted) + (0 if any(p.native == "depth" for p in wanted) else 1)
     working = 4 * channels + HIT_BYTES   # the add-on's buffers and the core's hit buffer
     per_pixel = 4 * channels * 2 * views + (working if samples > 1 else -(-working // 8))
-    return per_pixel * width * height, per_pixel
+    needed = per_pixel * width * height
+    if samples == 1:  # a small frame's band is more than an eighth of it (band_rows)
+        needed += working * max(0, BAND_MIN_PIXELS - width * height // 8)
+    return needed, per_pixel
 
 
 def memory_available():
@@ -201,10 +204,17 @@ def write_pass(layer, render_pass, view, values):
     found.rect.foreach_set(values.ravel())
 
 
-def band_rows(height, tile_size):
-    """Rows of one band of a one-sample render: a sixteenth of the window in whole tiles (so the
-    threads share each band's tiles), at least one tile."""
-    rows = -(-height // 16)
+# Every band costs the same whatever its size: Blender's begin_result/end_result merge, one
+# foreach_set per pass and the core's per-call setup (about 0.16 ms of CPU a band, measured with
+# bench_f12.py --animation at 640x360: 16 bands 1.27x the bare core's CPU, 2 bands 1.15x). So a band
+# is a sixteenth of the window (progress to watch, an eighth's memory) but no fewer pixels than this.
+BAND_MIN_PIXELS = 1 << 17
+
+
+def band_rows(width, height, tile_size):
+    """Rows of one band of a one-sample render: a sixteenth of the window, at least BAND_MIN_PIXELS
+    pixels, in whole tiles (so the threads share each band's tiles), at least one tile."""
+    rows = max(-(-height // 16), -(-BAND_MIN_PIXELS // max(width, 1)))
     rows = -(-rows // tile_size) * tile_size
     return max(min(rows, height), 1)
 
@@ -220,7 +230,7 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
     width, height, camera = image
     x0, y0, w, h = window
     options = dict(shading=shading, poll_interval=0.02, **export.render_options(scene))
-    rows = band_rows(h, options["tile_size"])
+    rows = band_rows(w, h, options["tile_size"])
     bands = -(-h // rows)
     progress = Progress(engine, label, 1, 1)
     cameras = {}

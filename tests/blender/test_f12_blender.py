@@ -41,6 +41,26 @@ def test_esc_in_the_first_sample_keeps_the_tiles_done(run_bpy):
     assert r["rendered_equal"], r
 
 
+def test_one_sample_renders_in_bands_of_at_least_BAND_MIN_PIXELS(run_bpy):
+    """Issue 21: a one-sample F12 goes to Blender band by band, and each band costs Blender's merge
+    and the core's setup whatever its size: a sixteenth of the window, but at least 2^17 pixels
+    (in whole 32-row tiles). The bands tile the frame, top to bottom, without gaps or overlaps."""
+    sizes = {(640, 360): 2, (1280, 1024): 8, (1920, 1080): 12, (96, 64): 1}
+    r = run_bpy("f12.one_sample_bands", args={"sizes": list(sizes)})["found"]
+    for (width, height), bands in sizes.items():
+        found = r["%dx%d" % (width, height)]
+        rects = [tuple(x) for x in found["results"]]
+        assert len(rects) == bands, (width, height, rects)
+        assert all(x == 0 and w == width for x, _, w, _ in rects), rects
+        assert [y for _, y, _, _ in rects] == sorted(y for _, y, _, _ in rects)
+        assert sum(h for *_, h in rects) == height and rects[0][1] == 0, rects
+        assert all(a[1] + a[3] == b[1] for a, b in zip(rects, rects[1:])), rects
+        assert all(h % 32 == 0 and h * width >= 1 << 17 for *_, h in rects[:-1]), rects
+        # Every band was rendered (the background too) and the fractal spans rows of several bands.
+        assert found["rendered"] == 1.0 and 0.05 < found["hit"] < 0.95, found
+        assert found["hit_rows"] > height // 3, found
+
+
 def test_a_failure_between_samples_still_writes_no_file(run_bpy):
     r = run_bpy("f12.failure_mid_render_writes_no_file")
     outcome, written = r["outcome"]

@@ -49,6 +49,7 @@ class Spy:
         self._engine = engine
         self._cancel = cancel
         self.stats, self.progress, self.updates, self.breaks = [], [], [], 0
+        self.results = []  # begin_result's rectangles (x, y, width, height)
 
     def __getattr__(self, name):
         return getattr(self._engine, name)
@@ -70,6 +71,10 @@ class Spy:
                                  stats=self.stats[-1] if self.stats else None,
                                  alpha_sum=float(pixels[3::4].sum()), rgb_sum=float(pixels.reshape(-1, 4)[:, :3].sum()),
                                  digest=hash(pixels.tobytes())))
+
+    def begin_result(self, x, y, w, h, **kw):
+        self.results.append((x, y, w, h))
+        return self._engine.begin_result(x, y, w, h, **kw)
 
     def test_break(self):
         if self._engine.test_break():
@@ -138,13 +143,14 @@ def esc_keeps_the_samples_done(S, mod, samples=8, at=0.5, motion_blur=False):
 
 
 def esc_in_the_first_sample_keeps_the_tiles_done(S, mod):
-    """One sample, cancelled part of the way: the tiles done are kept (alpha 1 where the fractal is
-    hit), the rest transparent black, and the frame is not an empty image."""
-    scene = scene_with_samples(S, 320, 240, 1)
+    """One sample, cancelled part of the way (in the middle of its second band of three,
+    engine.band_rows): the tiles done are kept (alpha 1 where the fractal is hit), the rest
+    transparent black, and the frame is not an empty image."""
+    scene = scene_with_samples(S, 640, 480, 1)
     scene.unbound.tile_size = 16
     scene.render.threads_mode = 'FIXED'
     scene.render.threads = 1
-    spies, restore = spied(mod, cancel=lambda spy: bool(spy.progress) and spy.progress[-1] > 0.75)
+    spies, restore = spied(mod, cancel=lambda spy: bool(spy.progress) and spy.progress[-1] > 0.4)
     partial = read_passes(S, scene, "partial.exr")
     restore()
     stats = dict(mod.engine.LAST_STATS)
@@ -154,6 +160,26 @@ def esc_in_the_first_sample_keeps_the_tiles_done(S, mod):
     S.report(stats=stats, partial_coverage=float(rendered.mean()), full_coverage=float((b > 0).mean()),
              rendered_equal=bool(all(np.array_equal(partial["ViewLayer.Combined.%s" % c][rendered],
                                                     full["ViewLayer.Combined.%s" % c][rendered]) for c in "RGBA")))
+
+
+def one_sample_bands(S, mod, sizes):
+    """One sample at each size: the rectangles the render's bands asked Blender for, and how much
+    of the frame the fractal covers."""
+    found = {}
+    for width, height in sizes:
+        scene = scene_with_samples(S, width, height, 1)
+        scene.unbound.shadows = 'HARD'
+        scene.unbound.ao_strength = 0.0
+        spies, restore = spied(mod)
+        try:
+            px = read_passes(S, scene, "bands_%dx%d.exr" % (width, height))
+        finally:
+            restore()
+        hit = px["ViewLayer.Depth.Z"] < 1e6  # the background's depth is Blender's 1e10
+        found["%dx%d" % (width, height)] = dict(results=spies[-1].results, hit=float(hit.mean()),
+                                                 hit_rows=int(hit.any(axis=1).sum()),
+                                                 rendered=float((px["ViewLayer.Combined.A"] > 0).mean()))
+    S.report(found=found)
 
 
 def failure_mid_render_writes_no_file(S, mod, samples=4):

@@ -31,7 +31,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import gui_common  # noqa: E402
 from gui_common import MODULE, OUT, after, area, fractal_scene, grab, guarded, log, region, window  # noqa: E402
 
-F12_SAMPLES = 24   # about 3 s with one thread: Blender refreshes the window about every half second
+F12_SAMPLES = 64   # 2.5-4 s with one thread (24 took 3 s before the core got 2.5x faster, then
+#                    1.1-1.5 s: too few refreshes): Blender refreshes the window about every half second
 SCRATCH = tempfile.mkdtemp()
 
 
