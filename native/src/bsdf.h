@@ -179,7 +179,7 @@ static void bsdf_eval(const ub_bsdf *b, const float n[3], const double wo[3], co
  * (visible normals, Heitz 2018), chosen by their rough weights; its density is the mixture's, so
  * any direction's throughput is bsdf_eval / density.
  * Perfectly smooth lobes (alpha^2 <= 2e-10, which bsdf_eval treats as mirrors no light direction
- * hits) are not sampled. Needs ub_cos and ub_sin (ubmath.h). */
+ * hits) are not sampled. Needs ub_sincos (ubmath.h). */
 
 /* An orthonormal frame (t, s, n) about unit n (Duff et al. 2017). */
 static inline void bsdf_frame(const float n[3], double t[3], double s[3])
@@ -252,8 +252,9 @@ static int bsdf_ggx_sample(const ub_bsdf *b, const float n[3], const double wo[3
         T1[1] = vh[0] * inv;
     }
     double T2[3] = {vh[1] * T1[2] - vh[2] * T1[1], vh[2] * T1[0] - vh[0] * T1[2], vh[0] * T1[1] - vh[1] * T1[0]};
-    double r = sqrt(r1), phi = 2.0 * M_PI * r2;
-    double p1 = r * ub_cos(phi), p2 = r * ub_sin(phi), half = 0.5 * (1.0 + vh[2]);
+    double r = sqrt(r1), phi = 2.0 * M_PI * r2, sp, cp;
+    ub_sincos(phi, &sp, &cp);
+    double p1 = r * cp, p2 = r * sp, half = 0.5 * (1.0 + vh[2]);
     double rest = 1.0 - p1 * p1;
     p2 = (1.0 - half) * sqrt(rest > 0.0 ? rest : 0.0) + half * p2;
     double up = 1.0 - p1 * p1 - p2 * p2;

@@ -219,8 +219,10 @@ static void aperture_point(const ub_camera *cam, const double uv[2], double out[
             r = b;
             phi = M_PI_2 - M_PI_4 * (a / b);
         }
-        x = r * ub_cos(phi);
-        y = r * ub_sin(phi);
+        double sp, cp;
+        ub_sincos(phi, &sp, &cp);
+        x = r * cp;
+        y = r * sp;
     } else {
         double n = cam->blades, scaled = uv[0] * n;
         double corner = floor(scaled);
@@ -230,7 +232,8 @@ static void aperture_point(const ub_camera *cam, const double uv[2], double out[
         u = 1.0 - u;
         double tx = (u + v) * cam->blade_cos, ty = (u - v) * cam->blade_sin;
         double turn = cam->blade_rotation + corner * (2.0 * M_PI) / n;
-        double c = ub_cos(turn), s = ub_sin(turn);
+        double c, s;
+        ub_sincos(turn, &s, &c);
         x = c * tx - s * ty;
         y = s * tx + c * ty;
     }

@@ -1155,7 +1155,8 @@ static PyObject *py_math_probe(PyObject *self, PyObject *args)
         const char *name;
         int arity, single;
     } functions[] = {{"exp", 1, 0}, {"log", 1, 0}, {"sin", 1, 0}, {"cos", 1, 0}, {"acos", 1, 0},
-                     {"expf", 1, 1}, {"pow", 2, 0}, {"hypot", 2, 0}, {"fmaf", 3, 1}};
+                     {"expf", 1, 1}, {"pow", 2, 0}, {"hypot", 2, 0}, {"fmaf", 3, 1},
+                     {"sincos_sin", 1, 0}, {"sincos_cos", 1, 0}};
     const char *name;
     PyObject *values;
     if (!PyArg_ParseTuple(args, "sO:_math_probe", &name, &values))
@@ -1199,7 +1200,12 @@ static PyObject *py_math_probe(PyObject *self, PyObject *args)
         case 5: y = ub_expf((float)a[0]); break;
         case 6: y = ub_pow(a[0], a[1]); break;
         case 7: y = ub_hypot(a[0], a[1]); break;
-        default: y = ub_fmaf((float)a[0], (float)a[1], (float)a[2]); break;
+        case 8: y = ub_fmaf((float)a[0], (float)a[1], (float)a[2]); break;
+        default: {
+            double sine, cosine;
+            ub_sincos(a[0], &sine, &cosine);
+            y = f == 9 ? sine : cosine;
+        }
         }
         PyObject *value = PyFloat_FromDouble(y);
         if (!value || PyList_SetItem(result, i, value) < 0)

@@ -451,6 +451,28 @@ static inline double ub_cos(double x)
     }
 }
 
+/* Sine and cosine of one angle with one argument reduction (a sample's direction needs both):
+ * the same bits as ub_sin(x) and ub_cos(x). */
+static inline void ub_sincos(double x, double *sine, double *cosine)
+{
+    if (ub__is_nan(x) || x - x != 0.0) {
+        *sine = *cosine = ub__nan();
+        return;
+    }
+    double rh, rl, s, c;
+    int quadrant = ub__reduce(x, &rh, &rl);
+    s = ub__sin_kernel(rh, rl);
+    c = ub__cos_kernel(rh, rl);
+    switch (quadrant) {
+    case 0: *sine = s; *cosine = c; break;
+    case 1: *sine = c; *cosine = -s; break;
+    case 2: *sine = -s; *cosine = -c; break;
+    default: *sine = -c; *cosine = s; break;
+    }
+    if (x < 0x1p-26 && x > -0x1p-26) /* as ub_sin: x^3/6 is below half an ulp of x; keeps -0 */
+        *sine = x;
+}
+
 /* ------------------------------------------------------------------------------------ acos */
 
 /* asin(s) - s = s z R(z) for z = s^2 <= 1/4: R's Taylor series to z^27 (truncation below

@@ -41,10 +41,12 @@ enum { WORLD_LOBE_DIM = 0x574C0000 };
 static void world_direction(double u, double v, double d[3], double *sin_polar)
 {
     double phi = 2.0 * M_PI * (u - 0.5), lat = M_PI * (v - 0.5);
-    double cl = ub_cos(lat);
-    d[0] = ub_cos(phi) * cl;
-    d[1] = -ub_sin(phi) * cl;
-    d[2] = ub_sin(lat);
+    double sl, cl, sp, cp;
+    ub_sincos(lat, &sl, &cl);
+    ub_sincos(phi, &sp, &cp);
+    d[0] = cp * cl;
+    d[1] = -sp * cl;
+    d[2] = sl;
     *sin_polar = cl;
 }
 
@@ -168,7 +170,9 @@ static double diffuse_sample(const float n[3], double r1, double r2, double wi[3
     double t[3], s[3];
     bsdf_frame(n, t, s);
     double r = sqrt(r1), phi = 2.0 * M_PI * r2;
-    double x = r * ub_cos(phi), y = r * ub_sin(phi), z = sqrt(1.0 - r1 > 0.0 ? 1.0 - r1 : 0.0);
+    double sp, cp;
+    ub_sincos(phi, &sp, &cp);
+    double x = r * cp, y = r * sp, z = sqrt(1.0 - r1 > 0.0 ? 1.0 - r1 : 0.0);
     for (int k = 0; k < 3; k++)
         wi[k] = x * t[k] + y * s[k] + z * n[k];
     return z * M_1_PI;

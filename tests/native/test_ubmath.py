@@ -293,6 +293,19 @@ def test_special_values():
     assert probe("expf", [0.0, -INF, INF, -104.0, 89.0]) == [1.0, 0.0, INF, 0.0, INF]
 
 
+def test_sincos_is_sin_and_cos_bit_for_bit():
+    """ub_sincos (one argument reduction for a sample's direction: world.h, bsdf.h, camera.c)
+    returns exactly ub_sin's and ub_cos's bits: every special value, tiny arguments of both signs
+    (where sine is x itself), each quadrant, Cody-Waite's and Payne-Hanek's ranges."""
+    rng = random.Random(7)
+    xs = SPECIALS + [math.ldexp(rng.uniform(-1, 1), rng.randint(-1074, 1023)) for _ in range(400)] + [
+        rng.uniform(-20, 20) for _ in range(400)] + [k * math.pi / 4 for k in range(-16, 17)] + [
+        rng.choice((-1, 1)) * rng.uniform(2.0 ** -27, 2.0 ** -25) for _ in range(50)]
+    for sincos, plain in (("sincos_sin", "sin"), ("sincos_cos", "cos")):
+        got, want = probe(sincos, xs), probe(plain, xs)
+        assert [hex64(y) for y in got] == [hex64(y) for y in want], plain
+
+
 def test_probe_rejects_what_it_cannot_compute():
     """The private probe names its misuse instead of guessing."""
     import pytest
