@@ -24,6 +24,28 @@ TIMING_UNRELIABLE = SANITIZED or EMULATED
 # Run on another platform's Python (tools/foreign.py: wine or qemu).
 FOREIGN = bool(os.environ.get("UNBOUND_FOREIGN"))
 
+# The files whose time goes into float64 and arbitrary-precision references of the geometry (numpy,
+# mpmath, Decimal: dense sampling along rays, certified distances, referees), not into the core.
+# `pytest tests/native --platform-checks` leaves them out: the runs on another platform or Python
+# (tools/foreign.py under qemu and wine, the Python 3.13 chroot), where they would check again what
+# the x86-64 run checked, at 10-20x its cost under qemu. There the core's bits are held to x86-64's
+# by test_golden_pixels.py and test_platform_pixels.py, which render what these files test: a
+# platform that gives x86-64's bits passes them too.
+REFERENCE_FILES = ("test_mesh.py", "test_deep_zoom.py", "test_deep_zoom_formulas.py", "test_no_passthrough.py",
+                   "test_ifs.py", "test_step_bound.py", "test_mandelbrot.py", "test_cubic_locus.py",
+                   "test_formulas.py", "test_kifs_hybrid.py", "test_march_limits.py")
+
+
+def pytest_addoption(parser):
+    parser.addoption("--platform-checks", action="store_true",
+                     help="leave out REFERENCE_FILES (another platform's or Python's run; see conftest.py)")
+
+
+def pytest_ignore_collect(collection_path, config):
+    if collection_path.name in REFERENCE_FILES and config.getoption("--platform-checks", default=False):
+        return True
+    return None
+
 import unbound_core as uc  # noqa: E402  (the paths above first)
 
 # The kernels this CPU runs, narrowest first: every one must give the same bits (the farm promise).
