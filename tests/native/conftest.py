@@ -24,16 +24,20 @@ TIMING_UNRELIABLE = SANITIZED or EMULATED
 # Run on another platform's Python (tools/foreign.py: wine or qemu).
 FOREIGN = bool(os.environ.get("UNBOUND_FOREIGN"))
 
-# The files whose time goes into float64 and arbitrary-precision references of the geometry (numpy,
-# mpmath, Decimal: dense sampling along rays, certified distances, referees), not into the core.
-# `pytest tests/native --platform-checks` leaves them out: the runs on another platform or Python
-# (tools/foreign.py under qemu and wine, the Python 3.13 chroot), where they would check again what
-# the x86-64 run checked, at 10-20x its cost under qemu. There the core's bits are held to x86-64's
-# by test_golden_pixels.py and test_platform_pixels.py, which render what these files test: a
-# platform that gives x86-64's bits passes them too.
+# The files whose time goes into checking the geometry and the light against references (float64
+# and arbitrary-precision: dense sampling along rays, certified distances, referees; converged Monte
+# Carlo against the white furnace), not into what a platform changes. `pytest tests/native
+# --platform-checks` leaves them out: the runs on another platform or Python (tools/foreign.py under
+# qemu and wine, the Python 3.13 chroot), where they would check again what the x86-64 run checked,
+# at 10-20x its cost under qemu. There the core's bits are held to x86-64's by test_golden_pixels.py
+# and test_platform_pixels.py, which render what these files test (every kind and formula, deep
+# zoom, GI): a platform that gives x86-64's bits passes them too. What stays is what a platform can
+# change: the bits, the math library's vectors, the C API and its refusals, threads, cancel,
+# progress, memory.
 REFERENCE_FILES = ("test_mesh.py", "test_deep_zoom.py", "test_deep_zoom_formulas.py", "test_no_passthrough.py",
                    "test_ifs.py", "test_step_bound.py", "test_mandelbrot.py", "test_cubic_locus.py",
-                   "test_formulas.py", "test_kifs_hybrid.py", "test_march_limits.py")
+                   "test_formulas.py", "test_kifs_hybrid.py", "test_march_limits.py", "test_julia_stack.py",
+                   "test_gi.py")
 
 
 def pytest_addoption(parser):
@@ -214,12 +218,21 @@ def pixel_rays(camera):
     return origin, direction
 
 
+def skip_the_reference_when_sanitized():
+    """Under the sanitizers (tools/sanitize.sh) what they check of a no-pass-through test is its
+    render, which ran before this, instrumented; the float64 dense sampling that follows is numpy's
+    time (10-80 s a test there, half of the sanitized run), and its verdict is the plain run's."""
+    if SANITIZED:
+        pytest.skip("sanitized: the render ran; its float64 reference is left to the plain run")
+
+
 def dense_sampling(camera, classify, center, radius, sample, solid=4):
     """Float64 dense sampling of each pixel's ray through the ball (center, radius).
     classify(points (n, 3)) -> (member, shell): booleans, in the set (its orbit stays bounded)
     and in the threshold shell {d < eps} of the float64 estimate. Returns (t_solid, t_shell) per
     pixel: the end of the first run of at least `solid` consecutive member samples (a piece of
     the set thicker than a grazing sliver), and the first shell sample; inf where there is none."""
+    skip_the_reference_when_sanitized()
     origin, direction = pixel_rays(camera)
     h, w = origin.shape[:2]
     t_solid = np.full((h, w), np.inf)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import unbound_core as uc
-from conftest import KERNELS, make_camera, render
+from conftest import KERNELS, make_camera, render, skip_the_reference_when_sanitized
 from reference import formulas64 as f64
 from reference import kifs64 as k64
 
@@ -188,6 +188,7 @@ def test_depth_agrees_with_the_reference_and_nothing_is_passed(name, zoom):
     text, anchor, direction = surface_anchor(name, zoom)
     camera = view(direction)
     passes, _ = render(camera, [zoomed(name, zoom, text)], names=["alpha", "position"])
+    skip_the_reference_when_sanitized()
     origin, dirs = core_rays(camera)
     hit = passes["alpha"][..., 0].reshape(-1) == 1.0
     t_core = np.where(hit, np.linalg.norm(passes["position"].reshape(-1, 3) - origin, axis=-1), np.inf)

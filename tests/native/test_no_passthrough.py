@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import make_camera, render
+from conftest import make_camera, render, skip_the_reference_when_sanitized
 from reference import qjulia64 as ref
 
 CASES = {
@@ -54,6 +54,7 @@ def dense_reference(name, camera_name="pinhole"):
     """{(y, x): None (the ray misses the bounding ball) or (origin, t of the first dense sample in
     {d < eps}, t where its first solid piece ends)} for the rays that meet the ball and the set.
     The float64 sampling is the slow part: once per case, for both bisection settings."""
+    skip_the_reference_when_sanitized()
     mu = CASES[name]
     radius = ref.bounding_radius(mu)
     camera = THIN_LENS if camera_name == "thin_lens" else CAMERA
@@ -125,6 +126,7 @@ def test_shadow_rays_do_not_pass_through_the_set(name):
     sun = dict(type="sun", direction=tuple(-SUN_TOWARD), color=(1.0, 1.0, 1.0))
     passes, _ = render(CAMERA, [obj], ["alpha", "position", "normal", "shadow"],
                        shading=dict(lights=[sun], shadows="hard", axle_light=0.0))
+    skip_the_reference_when_sanitized()
     radius = ref.bounding_radius(mu)
     occluded = free = 0
     for y, x in zip(*np.nonzero(passes["alpha"][..., 0] == 1)):

@@ -9,7 +9,6 @@ pixels as the golden file does; under qemu (linux-arm64), wine (windows-x64) and
 what those runs check of these features, whose float64 and arbitrary-precision references
 (conftest.REFERENCE_FILES) run on x86-64 only: a platform that gives x86-64's bits passes them too.
 Every scene must show the set over part of its frame, so that no digest is of an empty image."""
-import hashlib
 import json
 import os
 import pathlib
@@ -22,6 +21,7 @@ from conftest import HEAVY_SHADING, KIND_OBJECTS, make_camera, render, uniform_w
 from test_formulas import BOX, BOX_CAMERA, BOX_JULIA, BOX_NEG, BULB, BULB_CAMERA, BULB_JULIA
 from test_kifs_hybrid import CAMERAS as KIFS_CAMERAS, HYBRID_OBJECTS, KIFS_OBJECTS
 from test_gi import FLOOR, RED, SUN
+from test_golden_pixels import digest
 
 RECORDED = pathlib.Path(__file__).with_name("platform_pixels.json")
 RECORD = bool(os.environ.get("UNBOUND_RECORD_PLATFORM"))
@@ -99,15 +99,6 @@ def scenes():
                        ("mirrorball", {})):
         out["panorama-" + kind] = (pano_camera(kind, 32, 16, **keys), [JULIA], {})
     return out
-
-
-def digest(parts, stats=None):
-    h = hashlib.sha256()
-    for part in parts:
-        h.update(part)
-    if stats is not None:
-        h.update(("%d %d %d" % (stats["rays"], stats["steps"], stats["iterations"])).encode())
-    return h.hexdigest()
 
 
 MESH_KEYS = ("vertices", "faces", "trap", "iterations", "estimate")
