@@ -9,19 +9,17 @@ pixels as the golden file does; under qemu (linux-arm64), wine (windows-x64) and
 what those runs check of these features, whose float64 and arbitrary-precision references
 (conftest.REFERENCE_FILES) run on x86-64 only: a platform that gives x86-64's bits passes them too.
 Every scene must show the set over part of its frame, so that no digest is of an empty image."""
-import json
 import os
 import pathlib
 
 import numpy as np
-import pytest
 import unbound_core as uc
 
 from conftest import HEAVY_SHADING, KIND_OBJECTS, make_camera, render, uniform_world
 from test_formulas import BOX, BOX_CAMERA, BOX_JULIA, BOX_NEG, BULB, BULB_CAMERA, BULB_JULIA
 from test_kifs_hybrid import CAMERAS as KIFS_CAMERAS, HYBRID_OBJECTS, KIFS_OBJECTS
 from test_gi import FLOOR, RED, SUN
-from test_golden_pixels import digest
+from test_golden_pixels import assert_recorded, digest
 
 RECORDED = pathlib.Path(__file__).with_name("platform_pixels.json")
 RECORD = bool(os.environ.get("UNBOUND_RECORD_PLATFORM"))
@@ -119,11 +117,4 @@ def current_hashes():
 
 
 def test_same_bits_as_recorded_on_x86_64():
-    hashes = current_hashes()
-    if RECORD:
-        RECORDED.write_text(json.dumps(hashes, indent=1, sort_keys=True) + "\n")
-        pytest.skip("recorded %d hashes" % len(hashes))
-    recorded = json.loads(RECORDED.read_text())
-    assert set(hashes) == set(recorded), "the scenes changed: re-record them on the commit before the change"
-    changed = sorted(name for name in hashes if hashes[name] != recorded[name])
-    assert not changed, "bits differ in %d of %d scenes: %s" % (len(changed), len(hashes), changed)
+    assert_recorded(current_hashes(), RECORDED, RECORD)
