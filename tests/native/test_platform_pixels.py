@@ -18,6 +18,9 @@ import unbound_core as uc
 from conftest import HEAVY_SHADING, KIND_OBJECTS, make_camera, render, uniform_world
 from test_formulas import BOX, BOX_CAMERA, BOX_JULIA, BOX_NEG, BULB, BULB_CAMERA, BULB_JULIA
 from test_kifs_hybrid import CAMERAS as KIFS_CAMERAS, HYBRID_OBJECTS, KIFS_OBJECTS
+from test_panoramic import pano_camera
+from test_deep_zoom import BASE_ITERATIONS, MU as ZOOM_MU
+from test_deep_zoom_formulas import CASES as ZOOM_CASES, EPSILON as ZOOM_EPSILON, view as zoom_camera
 from test_gi import FLOOR, RED, SUN
 from test_golden_pixels import assert_recorded, digest
 
@@ -28,34 +31,21 @@ JULIA = KIND_OBJECTS["quaternion_julia"]
 BALL = dict(mu=(0.0, 0.0, 0.0, 0.0), max_iterations=32, color=(0.8, 0.4, 0.2))
 # Points on the surfaces found by the deep-zoom tests' referees (test_deep_zoom.surface,
 # test_deep_zoom_formulas.surface_anchor at zoom 10), and the rays they were found along: the
-# camera looks at the anchor from 3 local units back, a little beside it, as those tests do.
+# camera looks at the anchor from 3 local units back, a little beside it (test_deep_zoom_formulas.view).
 TOWARD = (-0.12668127104390728, 0.9501095328293045, -0.2850328598487914)
 JULIA_ANCHOR = ("0.134969271937106548198865103120613665424481 -1.012269539528299032059470560628253411465838 "
                 "0.303680861858489662141152875893901244450800")
 FORMULA_ANCHORS = {
-    "mandelbulb": (BULB, "0.10035396779710364 -0.75265475847827712 0.22579642754348336", TOWARD),
-    "mandelbox": (BOX, "0.7999999999999996 -6.0000000000000018 1.8000000000000009", TOWARD),
-    "kifs": (KIFS_OBJECTS["sierpinski"], "0.50000010309842369 0.29999999999999999 0.20000000000000001",
-             (-1.0, 0.0, 0.0)),
-    "hybrid": (dict(kind="hybrid", hybrid_steps=[(0, 1), (1, 1)], max_iterations=10),
-               "0.0082847522632319426 -0.062135641974239764 0.018640692592271853", TOWARD),
+    "mandelbulb": ("0.10035396779710364 -0.75265475847827712 0.22579642754348336", TOWARD),
+    "mandelbox": ("0.7999999999999996 -6.0000000000000018 1.8000000000000009", TOWARD),
+    "kifs": ("0.50000010309842369 0.29999999999999999 0.20000000000000001", (-1.0, 0.0, 0.0)),
+    "hybrid": ("0.0082847522632319426 -0.062135641974239764 0.018640692592271853", TOWARD),
 }
-SIDE = np.array([0.6, 0.8, 0.0])
-
-
-def zoom_camera(toward, width=24, height=18):
-    toward = np.asarray(toward)
-    return make_camera(width, height, eye=tuple(-3.0 * toward), target=tuple(0.3 * SIDE))
 
 
 def world_map():
     """A World of random texels: numpy's PCG64 gives the same floats on every platform."""
     return np.random.default_rng(7).random((16, 32, 3), dtype=np.float32) * 3
-
-
-def pano_camera(kind, width, height, **keys):
-    cam = make_camera(width, height)
-    return dict(cam, panorama_type=kind, **keys)
 
 
 def scenes():
@@ -70,14 +60,15 @@ def scenes():
         out[name] = (cam, [obj], {})
     out["heavy-mandelbulb"] = (BULB_CAMERA, [dict(BULB, reflectivity=0.3)], dict(shading=HEAVY_SHADING))
     out["heavy-kifs-menger"] = (KIFS_CAMERAS["kifs"], [KIFS_OBJECTS["menger"]], dict(shading=HEAVY_SHADING))
-    julia_zoom = dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=16, threshold_mode="fixed", epsilon=1e-3,
+    julia_zoom = dict(mu=ZOOM_MU, max_iterations=BASE_ITERATIONS, threshold_mode="fixed", epsilon=ZOOM_EPSILON,
                       zoom_anchor=JULIA_ANCHOR)
     for zoom in (5, 20, 30):  # 5: double; 20, 30: perturbation from the anchor's orbit
-        out["zoom-julia-%d" % zoom] = (zoom_camera(TOWARD), [dict(julia_zoom, zoom=float(zoom))],
+        out["zoom-julia-%d" % zoom] = (zoom_camera(np.array(TOWARD), 24, 18), [dict(julia_zoom, zoom=float(zoom))],
                                        dict(shading=dict(shadows="hard")))
-    for name, (obj, anchor, toward) in FORMULA_ANCHORS.items():
-        out["zoom-%s-10" % name] = (zoom_camera(toward), [dict(obj, zoom=10.0, zoom_anchor=anchor,
-                                                               threshold_mode="fixed", epsilon=1e-3)], {})
+    for name, (anchor, toward) in FORMULA_ANCHORS.items():
+        out["zoom-%s-10" % name] = (zoom_camera(np.array(toward), 24, 18),
+                                    [dict(ZOOM_CASES[name], zoom=10.0, zoom_anchor=anchor, threshold_mode="fixed",
+                                          epsilon=ZOOM_EPSILON)], {})
     out["world-map"] = (make_camera(32, 24), [dict(BALL, reflectivity=0.3), dict(JULIA, matrix=[
         [0.5, 0, 0, 1.2], [0, 0.5, 0, 0], [0, 0, 0.5, 0], [0, 0, 0, 1]])],
         dict(world=world_map(), background=(0, 0, 0, 1),
