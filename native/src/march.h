@@ -57,16 +57,22 @@ static int object_rays(const ub_object *o, const ub_packet_rays *restrict r, con
         const vd qb = vd_add(vd_add(vd_mul(rel[0], od[0]), vd_mul(rel[1], od[1])), vd_mul(rel[2], od[2]));
         const vd qc = vd_sub(vd_add(vd_add(vd_mul(rel[0], rel[0]), vd_mul(rel[1], rel[1])), vd_mul(rel[2], rel[2])),
                              vd_set1(radius2));
-        const vd disc = vd_sub(vd_mul(qb, qb), vd_mul(qa, qc)), sq = vd_sqrt(disc), neg_b = vd_mul(qb, minus_one);
-        const vd near = vd_div(vd_sub(neg_b, sq), qa), far = vd_div(vd_add(neg_b, sq), qa);
+        const vd disc = vd_sub(vd_mul(qb, qb), vd_mul(qa, qc));
         const vd t_min = vd_load(r->t_min + h), t_lim = vd_load(limit + h);
         const vdm crosses = vdm_and(vdm_from_bits((lanes_in >> h) & ((1 << VD_LANES) - 1)), vd_ge(disc, zero));
-        vd t0 = vd_select(crosses, vd_select(vd_gt(near, t_min), near, t_min), zero);
-        vd t1 = vd_select(crosses, vd_select(vd_lt(far, t_lim), far, t_lim), minus_one);
-        const vdm touches = vd_ge(t1, t0);
-        lanes |= vdm_bits(touches) << h;
-        t0 = vd_select(touches, t0, t_min);
-        t1 = vd_select(touches, t1, t0);
+        vd t0 = t_min, t1 = t_min; /* what a lane that does not touch the ball gets */
+        /* Only where some lane's line crosses the ball are its roots wanted: the square root and
+         * the two divides are most of the clip's time, and most camera rays of a frame miss. */
+        if (vdm_bits(crosses)) {
+            const vd sq = vd_sqrt(disc), neg_b = vd_mul(qb, minus_one);
+            const vd near = vd_div(vd_sub(neg_b, sq), qa), far = vd_div(vd_add(neg_b, sq), qa);
+            vd c0 = vd_select(crosses, vd_select(vd_gt(near, t_min), near, t_min), zero);
+            vd c1 = vd_select(crosses, vd_select(vd_lt(far, t_lim), far, t_lim), minus_one);
+            const vdm touches = vd_ge(c1, c0);
+            lanes |= vdm_bits(touches) << h;
+            t0 = vd_select(touches, c0, t_min);
+            t1 = vd_select(touches, c1, t0);
+        }
         vd pe[3];
         for (int i = 0; i < 3; i++)
             pe[i] = vd_add(oo[i], vd_mul(t0, od[i]));
@@ -647,7 +653,7 @@ static void trace_pair(const ub_scene *sc, const ub_de_params *dps, const ub_pac
         int active[2];
         ub_march_result res[2];
         for (int j = 0; j < 2; j++)
-            active[j] = object_rays(o, pr[j], ts[j].best_t, ts[j].open, &orays[j]);
+            active[j] = ts[j].open ? object_rays(o, pr[j], ts[j].best_t, ts[j].open, &orays[j]) : 0;
         if (active[0] && active[1] && julia_only(&dps[k])) {
             const ub_object_rays *const both[2] = {&orays[0], &orays[1]};
             vf *const steps[2] = {&ts[0].steps, &ts[1].steps};
