@@ -1214,19 +1214,25 @@ static int empty_packet(const ub_scene *sc, int x, int y, int n)
     return 1;
 }
 
-/* The paths of a packet none of whose camera rays is traced (empty_packet), without a world map:
- * what tile_shade makes of its trace results (nothing hit, no step) and the film's background,
- * which does not depend on the rays. Issue 21: most of a frame's background is such packets, and
- * their camera rays, clipping and paths were a third of the peer render. */
+/* The paths of a packet none of whose camera rays is traced (empty_packet), without a World map
+ * or with a constant one (Blender's default World): what tile_shade makes of its trace results
+ * (nothing hit, no step) and the background, which then does not depend on the rays. Issue 21:
+ * most of a frame's background is such packets, and their camera rays, clipping and paths were a
+ * third of the peer render. */
 static void background_paths(const ub_scene *sc, ub_paths *ps)
 {
     ub_trace_result missed;
     memset(&missed, 0, sizeof missed);
-    for (int l = 0; l < UB_LANES; l++)
+    ub_packet_rays any; /* a constant World's radiance is the same along every direction */
+    memset(&any, 0, sizeof any);
+    for (int l = 0; l < UB_LANES; l++) {
         missed.object[l] = UB_HIT_NONE;
+        for (int i = 0; i < 3; i++)
+            any.dir[i][l] = sc->camera->forward[i];
+    }
     start_paths(&missed, ps);
     ps->unseen = 0;
-    add_background(sc, 0, UB_ALL_LANES, NULL, &missed, ps);
+    add_background(sc, 0, UB_ALL_LANES, &any, &missed, ps);
 }
 
 /* Phase 1 over one tile: each packet's paths bounce by bounce, then its passes. The camera rays'
@@ -1253,7 +1259,7 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
     ub_primary_slots slots;
     slots.x = -1;
     /* The paths of a packet that sees only the film's background (empty_packet), made once. */
-    const int background_only = trace_first && sc->cones && !sc->world;
+    const int background_only = trace_first && sc->cones && (!sc->world || world_is_constant(sc->world));
     ub_paths background;
     if (background_only)
         background_paths(sc, &background);

@@ -86,9 +86,15 @@ static inline void world_texel(const ub_world *wd, double u, double v, int *i, i
 }
 
 /* The map seen along direction d, bilinear: wraps around in u, clamps at the poles. */
+/* A constant World: a 1x1 map, whose radiance world_radiance gives along every direction. */
+static inline int world_is_constant(const ub_world *wd)
+{
+    return wd->w == 1 && wd->h == 1;
+}
+
 static void world_radiance(const ub_world *wd, const double d[3], float out[3])
 {
-    if (wd->w == 1 && wd->h == 1) {
+    if (world_is_constant(wd)) {
         /* A constant World (a 1x1 map): all four corners are the one texel, so the blend below
          * is t + fx (t - t) = t + 0 for any direction; the same bits without the two arc
          * cosines of world_uv (a third of a missed ray's cost). */

@@ -48,18 +48,24 @@ def test_rays_start_later_and_hit_what_they_hit(name):
         assert np.array_equal(on["depth"][sea], off["depth"][sea])
 
 
-def test_empty_blocks_show_what_the_traced_rays_show():
+WORLDS = {"colour": None, "constant": np.full((1, 1, 3), 0.4, np.float32),
+          "map": np.arange(2 * 4 * 3, dtype=np.float32).reshape(2, 4, 3) / 24.0}
+
+
+@pytest.mark.parametrize("world", sorted(WORLDS))
+def test_empty_blocks_show_what_the_traced_rays_show(world):
     """A block whose cone gets past every object's bounding ball is empty: its camera rays are
     not traced, and a packet of only such rays gets the background's paths without rays
-    (kernel.h, empty_packet). Where the rays traced from the clip plane (shared_steps 0) take no
-    step, the rays missed every ball: there every pass must be the same to the bit, over two
+    (kernel.h, empty_packet) where the background is the same along every ray (a colour or a
+    constant World). Where the rays traced from the clip plane (shared_steps 0) take no step,
+    the rays missed every ball: there every pass must be the same to the bit, over two
     samples, with glow (from the steps), AO and a background colour on."""
     # The set off the frame's centre: most of the frame is background.
     camera = make_camera(160, 120, eye=(0.4, -3.0, 0.9), target=(1.6, 0.0, 0.9))
     shading = dict(samples=2, ao_strength=0.5, ao_samples=2, glow_strength=0.5, ambient=(0.2, 0.2, 0.2))
-    background = (0.1, 0.2, 0.3, 0.5)
-    off, off_stats = render(camera, [JULIA], shading=shading, background=background, shared_steps=0)
-    on, on_stats = render(camera, [JULIA], shading=shading, background=background, shared_steps=1)
+    kw = dict(shading=shading, background=(0.1, 0.2, 0.3, 0.5), world=WORLDS[world])
+    off, off_stats = render(camera, [JULIA], shared_steps=0, **kw)
+    on, on_stats = render(camera, [JULIA], shared_steps=1, **kw)
     missed = off["steps"][..., 0] == 0
     assert 0.5 < missed.mean() < 0.95 and (off["alpha"][..., 0] > 0).mean() > 0.02
     for name in off:
