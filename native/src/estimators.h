@@ -664,28 +664,29 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
 {
     const vf four = v_set1(4.0f);
     const vf *z[2] = {z0, z1};
-    vf a[2], v2[2], r2[2], dr2[2], n[2], b2[2], c2[2], d2[2];
+    vf q[2][4], v2[2], r2[2], dr2[2], n[2];
     vm active[2];
     for (int k = 0; k < 2; k++) {
-        a[k] = z[k][0];
+        for (int c = 0; c < 4; c++)
+            q[k][c] = z[k][c];
         quaternion_norms(z[k], &v2[k], &r2[k]);
         dr2[k] = v_set1(1.0f);
         n[k] = v_set1(0.0f);
         active[k] = lanes[k];
-        b2[k] = v_add(z[k][1], z[k][1]);
-        c2[k] = v_add(z[k][2], z[k][2]);
-        d2[k] = v_add(z[k][3], z[k][3]);
     }
     for (int it = 0; it < p->max_iterations && m_bits(m_or(active[0], active[1])); it++) {
         for (int k = 0; k < 2; k++) {
-            vf nz[4], nr2;
-            quaternion_square_step(p->mu, a[k], b2[k], c2[k], d2[k], v2[k], nz);
+            /* 2ab + mu as fma(2a, b, mu): one doubling instead of three (2a b = a 2b exactly, so
+             * the same bits as quaternion_square_step's fma(a, 2b, mu)). The pair is bound by
+             * the ports, not by the longer path through 2a. */
+            vf nz[4], nr2, a2 = v_add(q[k][0], q[k][0]);
+            nz[0] = v_sub(v_fma(q[k][0], q[k][0], p->mu[0]), v2[k]);
+            for (int c = 1; c < 4; c++)
+                nz[c] = v_fma(a2, q[k][c], p->mu[c]);
             dr2[k] = v_select(active[k], v_mul(dr2[k], v_mul(four, r2[k])), dr2[k]);
             quaternion_norms(nz, &v2[k], &nr2);
-            a[k] = nz[0];
-            b2[k] = v_add(nz[1], nz[1]);
-            c2[k] = v_add(nz[2], nz[2]);
-            d2[k] = v_add(nz[3], nz[3]);
+            for (int c = 0; c < 4; c++)
+                q[k][c] = nz[c];
             r2[k] = v_select(active[k], nr2, r2[k]);
             n[k] = v_count(n[k], active[k]);
             active[k] = m_andnot(v_gt(nr2, p->bail2), active[k]);
