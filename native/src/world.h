@@ -85,13 +85,13 @@ static inline void world_texel(const ub_world *wd, double u, double v, int *i, i
     *j = clamp_index((int)floor(v * wd->h), wd->h);
 }
 
-/* The map seen along direction d, bilinear: wraps around in u, clamps at the poles. */
 /* A constant World: a 1x1 map, whose radiance world_radiance gives along every direction. */
 static inline int world_is_constant(const ub_world *wd)
 {
     return wd->w == 1 && wd->h == 1;
 }
 
+/* The map seen along direction d, bilinear: wraps around in u, clamps at the poles. */
 static void world_radiance(const ub_world *wd, const double d[3], float out[3])
 {
     if (world_is_constant(wd)) {
@@ -187,7 +187,7 @@ static double diffuse_sample(const float n[3], double r1, double r2, double wi[3
 /* Density per steradian of the map's distribution along direction d, and the texel (i, j) d sees. */
 static double world_pdf_along(const ub_world *wd, const double d[3], int *i, int *j)
 {
-    if (wd->w == 1 && wd->h == 1) { /* a constant World: texel (0, 0) whatever the direction */
+    if (world_is_constant(wd)) { /* a constant World: texel (0, 0) whatever the direction */
         *i = *j = 0;
         return world_pdf(wd, 0, 0, ub_hypot(d[0], d[1]));
     }
@@ -308,7 +308,7 @@ typedef struct {
 static int world_single_packet(const ub_scene *sc, const ub_bounce_density *bounces)
 {
     const ub_world *wd = sc->world;
-    return wd && sc->shading->world_samples == 1 && wd->sum > 0.0 && wd->w == 1 && wd->h == 1 && !bounces
+    return wd && sc->shading->world_samples == 1 && wd->sum > 0.0 && world_is_constant(wd) && !bounces
         && sc->shading->shadows != UB_SHADOWS_NONE;
 }
 
@@ -326,7 +326,7 @@ static void world_sample_rays(const ub_scene *sc, const sample_point *sp, int px
      * direction, when unoccluded). Its N samples come from the surface alone: half the shadow rays
      * of N pairs, and less noise. The same expectation; with global illumination, lanes that
      * bounce keep the map's samples (the bounce's MIS reads them: world_bounce_share). */
-    const int constant = wd->w == 1 && wd->h == 1;
+    const int constant = world_is_constant(wd);
     ub_packet_rays *sr = &wr->sr;
     wr->cand = wr->traced = 0;
     for (int l = 0; l < UB_LANES; l++) {
