@@ -937,7 +937,7 @@ static void gi_plan_bounces(const ub_shading *sh, const sample_point *sp, int px
             if (!bsdf_ggx_sample(b, n, wo, r3, r4, wi))
                 continue;
         } else {
-            diffuse_sample(n, r3, r4, wi);
+            diffuse_sample(n, r3, r4, NULL, wi);
         }
         double density = bounce_density(bd, b, n, wo, wi);
         if (!(density > 0.0))

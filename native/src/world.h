@@ -169,19 +169,140 @@ static inline double diffuse_response(const float n[3], const double wi[3])
     return c > 0.0 ? c * M_1_PI : 0.0;
 }
 
+/* The azimuth of diffuse_sample's direction for the random number r2. */
+static inline double diffuse_azimuth(double r2)
+{
+    return 2.0 * M_PI * r2;
+}
+
 /* Its sampling: a cosine-weighted direction about n by (r1, r2), density cos / pi (Malley's
- * method, in the frame of Duff et al. 2017). */
-static double diffuse_sample(const float n[3], double r1, double r2, double wi[3])
+ * method, in the frame of Duff et al. 2017). `azimuth`: the sine and cosine of
+ * diffuse_azimuth(r2) (sincos_lanes), or NULL to compute them here. */
+static double diffuse_sample(const float n[3], double r1, double r2, const double azimuth[2], double wi[3])
 {
     double t[3], s[3];
     bsdf_frame(n, t, s);
-    double r = sqrt(r1), phi = 2.0 * M_PI * r2;
+    double r = sqrt(r1);
     double sp, cp;
-    ub_sincos(phi, &sp, &cp);
+    if (azimuth) {
+        sp = azimuth[0];
+        cp = azimuth[1];
+    } else {
+        ub_sincos(diffuse_azimuth(r2), &sp, &cp);
+    }
     double x = r * cp, y = r * sp, z = sqrt(1.0 - r1 > 0.0 ? 1.0 - r1 : 0.0);
     for (int k = 0; k < 3; k++)
         wi[k] = x * t[k] + y * s[k] + z * n[k];
     return z * M_1_PI;
+}
+
+#ifdef VD_LANES
+/* ubmath.h's double-double steps in double vectors, operation for operation (the same bits). */
+static inline vd vd_neg(vd a) { return vd_mul(a, vd_set1(-1.0)); }
+
+static inline vd vd_two_sum(vd a, vd b, vd *e)
+{
+    vd s = vd_add(a, b), bb = vd_sub(s, a);
+    *e = vd_add(vd_sub(a, vd_sub(s, bb)), vd_sub(b, bb));
+    return s;
+}
+
+static inline vd vd_fast_two_sum(vd a, vd b, vd *e)
+{
+    vd s = vd_add(a, b);
+    *e = vd_sub(b, vd_sub(s, a));
+    return s;
+}
+
+static inline vd vd_two_prod(vd a, vd b, vd *e)
+{
+    const vd veltkamp = vd_set1(134217729.0);
+    vd p = vd_mul(a, b), ta = vd_mul(veltkamp, a), tb = vd_mul(veltkamp, b);
+    vd ah = vd_sub(ta, vd_sub(ta, a)), bh = vd_sub(tb, vd_sub(tb, b));
+    vd al = vd_sub(a, ah), bl = vd_sub(b, bh);
+    *e = vd_add(vd_add(vd_add(vd_sub(vd_mul(ah, bh), p), vd_mul(ah, bl)), vd_mul(al, bh)), vd_mul(al, bl));
+    return p;
+}
+
+/* ub__sin_kernel and ub__cos_kernel (their coefficients) in double vectors. */
+static inline vd vd_sin_kernel(vd rh, vd rl)
+{
+    static const double q[8] = {
+        0x1.1111111111111p-7, -0x1.a01a01a01a01ap-13, 0x1.71de3a556c734p-19,
+        -0x1.ae64567f544e4p-26, 0x1.6124613a86d09p-33, -0x1.ae7f3e733b81fp-41,
+        0x1.952c77030ad4ap-49, -0x1.2f49b46814157p-57};
+    const vd six = vd_set1(6.0);
+    vd zl, zh = vd_two_prod(rh, rh, &zl);
+    vd cl, ch = vd_two_prod(rh, zh, &cl);
+    cl = vd_add(cl, vd_mul(rh, zl));
+    vd sixth = vd_div(ch, six), pl, ph = vd_two_prod(sixth, six, &pl);
+    vd sixth_lo = vd_div(vd_add(vd_sub(vd_sub(ch, ph), pl), cl), six);
+    vd p = vd_set1(q[7]);
+    for (int i = 6; i >= 0; i--)
+        p = vd_add(vd_mul(p, zh), vd_set1(q[i]));
+    vd e, h = vd_two_sum(rh, vd_neg(sixth), &e);
+    vd tail = vd_add(vd_sub(e, sixth_lo), vd_mul(vd_mul(vd_mul(rh, zh), zh), p));
+    return vd_add(h, vd_add(tail, vd_mul(rl, vd_sub(vd_set1(1.0), vd_mul(vd_set1(0.5), zh)))));
+}
+
+static inline vd vd_cos_kernel(vd rh, vd rl)
+{
+    static const double c[9] = {
+        0x1.5555555555555p-5, -0x1.6c16c16c16c17p-10, 0x1.a01a01a01a01ap-16,
+        -0x1.27e4fb7789f5cp-22, 0x1.1eed8eff8d898p-29, -0x1.93974a8c07c9dp-37,
+        0x1.ae7f3e733b81fp-45, -0x1.6827863b97d97p-53, 0x1.e542ba4020225p-62};
+    const vd one = vd_set1(1.0), half = vd_set1(0.5);
+    vd zl, zh = vd_two_prod(rh, rh, &zl);
+    vd p = vd_set1(c[8]);
+    for (int i = 7; i >= 0; i--)
+        p = vd_add(vd_mul(p, zh), vd_set1(c[i]));
+    vd hz = vd_mul(half, zh), w = vd_sub(one, hz);
+    vd err = vd_sub(vd_sub(one, w), hz);
+    vd poly = vd_sub(vd_sub(vd_mul(vd_mul(zh, zh), p), vd_mul(half, zl)), vd_mul(rh, rl));
+    return vd_add(w, vd_add(err, poly));
+}
+#endif
+
+/* ub_sincos of every lane: in the kernels' double vectors where they have them, ub__reduce's
+ * Cody-Waite steps and its branches as selects, the same operations in the same order (the same
+ * bits); lanes past its range (|x| >= 2^20, inf, NaN) and the portable kernel call ub_sincos.
+ * Issue 21: the World's sample directions, lane by lane, were 7.5 % of an artist's first F12. */
+static void sincos_lanes(const double x[UB_LANES], double sine[UB_LANES], double cosine[UB_LANES])
+{
+    int wide = UB_ALL_LANES;
+#ifdef VD_LANES
+    wide = 0;
+    const vd zero = vd_set1(0.0), quarter_pi = vd_set1(0x1.921fb54442d18p-1);
+    for (int h = 0; h < UB_LANES; h += VD_LANES) {
+        const vd v = vd_load(x + h), ax = vd_select(vd_lt(v, zero), vd_neg(v), v);
+        wide |= vdm_bits(vdm_andnot(vd_lt(ax, vd_set1(0x1p20)), vdm_from_bits((1 << VD_LANES) - 1))) << h;
+        const vdm small = vd_ge(quarter_pi, ax);
+        const vd shifter = vd_set1(UB__ROUND_SHIFTER);
+        vd nd = vd_sub(vd_add(vd_mul(v, vd_set1(UB__2_OVER_PI)), shifter), shifter);
+        nd = vd_select(small, zero, nd);
+        const vd neg_nd = vd_neg(nd);
+        const vd t = vd_sub(v, vd_mul(nd, vd_set1(UB__PIO2_1)));
+        vd e1, e2, lo;
+        const vd h1 = vd_two_sum(t, vd_mul(neg_nd, vd_set1(UB__PIO2_2)), &e1);
+        const vd h2 = vd_two_sum(h1, vd_mul(neg_nd, vd_set1(UB__PIO2_3)), &e2);
+        const vd hi = vd_fast_two_sum(h2, vd_sub(vd_add(e1, e2), vd_mul(nd, vd_set1(UB__PIO2_4))), &lo);
+        const vd rh = vd_select(small, v, hi), rl = vd_select(small, zero, lo);
+        /* n mod 4 of the whole number nd (|nd| < 2^20: every step exact) */
+        const vd quadrant = vd_sub(nd, vd_mul(vd_set1(4.0), vd_floor(vd_mul(nd, vd_set1(0.25)))));
+        const vd odd = vd_sub(quadrant, vd_mul(vd_set1(2.0), vd_floor(vd_mul(quadrant, vd_set1(0.5)))));
+        const vd s = vd_sin_kernel(rh, rl), c = vd_cos_kernel(rh, rl);
+        const vdm swap = vd_gt(odd, vd_set1(0.5));
+        const vd s1 = vd_select(swap, c, s), c1 = vd_select(swap, s, c);
+        const vd sn = vd_select(vd_gt(quadrant, vd_set1(1.5)), vd_neg(s1), s1);
+        const vdm flip = vdm_and(vd_gt(quadrant, vd_set1(0.5)), vd_lt(quadrant, vd_set1(2.5)));
+        const vdm tiny = vdm_and(vd_lt(v, vd_set1(0x1p-26)), vd_gt(v, vd_set1(-0x1p-26)));
+        vd_store(sine + h, vd_select(tiny, v, sn));
+        vd_store(cosine + h, vd_select(flip, vd_neg(c1), c1));
+    }
+#endif
+    for (int l = 0; l < UB_LANES; l++)
+        if ((wide >> l) & 1)
+            ub_sincos(x[l], &sine[l], &cosine[l]);
 }
 
 /* Density per steradian of the map's distribution along direction d, and the texel (i, j) d sees. */
@@ -210,16 +331,16 @@ static ub_bounce_density material_world_density(const ub_bsdf *b)
 /* A direction drawn from the surface technique by (r1, r2), the lobe chosen by r_lobe (material
  * lanes only); its density, 0 if none (below the surface). Lambert: the cosine. */
 static double surface_sample(const ub_bsdf *b, const float n[3], const double wo[3], double r_lobe, double r1,
-                             double r2, double d[3])
+                             double r2, const double azimuth[2], double d[3])
 {
     if (!b)
-        return diffuse_sample(n, r1, r2, d);
+        return diffuse_sample(n, r1, r2, azimuth, d);
     ub_bounce_density own = material_world_density(b);
     if (r_lobe < own.p_specular) {
         if (!bsdf_ggx_sample(b, n, wo, r1, r2, d))
             return 0.0;
     } else {
-        diffuse_sample(n, r1, r2, d);
+        diffuse_sample(n, r1, r2, azimuth, d);
     }
     return bounce_density(&own, b, n, wo, d);
 }
@@ -243,7 +364,8 @@ static double surface_density(const ub_bsdf *b, const float n[3], const double w
  * `surface_only` (a constant World, world_light): the surface's direction alone, L f / p_surface. */
 static int world_direction_weight(const ub_world *wd, const float n[3], const ub_bsdf *b, const double wo[3],
                                   int technique, int surface_only, double r_lobe, double r1, double r2,
-                                  const ub_bounce_density *bd, int N, double d[3], double weight[3])
+                                  const double azimuth[2], const ub_bounce_density *bd, int N, double d[3],
+                                  double weight[3])
 {
     double p_map, p_surface;
     int i, j;
@@ -252,7 +374,7 @@ static int world_direction_weight(const ub_world *wd, const float n[3], const ub
             return 0;
         p_surface = bd ? bounce_density(bd, b, n, wo, d) / N : surface_density(b, n, wo, d);
     } else {
-        p_surface = surface_sample(b, n, wo, r_lobe, r1, r2, d);
+        p_surface = surface_sample(b, n, wo, r_lobe, r1, r2, azimuth, d);
         if (!(p_surface > 0.0))
             return 0;
         if (surface_only) {
@@ -329,31 +451,47 @@ static void world_sample_rays(const ub_scene *sc, const sample_point *sp, int px
     const int constant = world_is_constant(wd);
     ub_packet_rays *sr = &wr->sr;
     wr->cand = wr->traced = 0;
+    /* The lanes that draw a sample and their random numbers first; then, for the surface
+     * technique, the azimuths of them all at once (sincos_lanes). */
+    int drawing = 0;
+    double r1[UB_LANES], r2[UB_LANES], azimuth[UB_LANES], sine[UB_LANES], cosine[UB_LANES];
+    for (int l = 0; l < UB_LANES; l++) {
+        r1[l] = r2[l] = 0.0;
+        if (!((lanes >> l) & 1))
+            continue;
+        const ub_bounce_density *bd = bounces && bounces[l].scale > 0.0 ? &bounces[l] : NULL;
+        if ((bd && technique == 1) || (constant && !bd && technique == 0))
+            continue;
+        int dim = ((bounce * N + s) * 2 + technique) * 2;
+        r1[l] = random_uniform(px0 + step * l, py, sp->index, dim);
+        r2[l] = random_uniform(px0 + step * l, py, sp->index, dim + 1);
+        drawing |= 1 << l;
+    }
+    if (technique == 1 && drawing) {
+        for (int l = 0; l < UB_LANES; l++)
+            azimuth[l] = diffuse_azimuth(r2[l]);
+        sincos_lanes(azimuth, sine, cosine);
+    }
     for (int l = 0; l < UB_LANES; l++) {
         sr->t_base[l] = 0.0f;
         sr->t_min[l] = sr->t_max[l] = 0.0;
         for (int i = 0; i < 3; i++)
             sr->origin[i][l] = sr->dir[i][l] = 0.0;
         sr->dir[2][l] = 1.0;
-        if (!((lanes >> l) & 1))
+        if (!((drawing >> l) & 1))
             continue;
         const ub_bounce_density *bd = bounces && bounces[l].scale > 0.0 ? &bounces[l] : NULL;
-        if (bd && technique == 1)
-            continue;
         const int surface_only = constant && !bd;
-        if (surface_only && technique == 0)
-            continue;
         const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
-        int dim = ((bounce * N + s) * 2 + technique) * 2;
-        double r1 = random_uniform(px0 + step * l, py, sp->index, dim);
-        double r2 = random_uniform(px0 + step * l, py, sp->index, dim + 1);
         /* A material's lobe: a dimension of its own, so Lambert's pairs keep their bits. */
         double r_lobe = technique == 1 && b ? random_uniform(px0 + step * l, py, sp->index,
                                                              WORLD_LOBE_DIM + bounce * N + s)
                                             : 0.0;
         float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
         double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, d[3], w[3];
-        if (!world_direction_weight(wd, n, b, wo, technique, surface_only, r_lobe, r1, r2, bd, N, d, w))
+        const double lane_azimuth[2] = {technique == 1 ? sine[l] : 0.0, technique == 1 ? cosine[l] : 0.0};
+        if (!world_direction_weight(wd, n, b, wo, technique, surface_only, r_lobe, r1[l], r2[l],
+                                    technique == 1 ? lane_azimuth : NULL, bd, N, d, w))
             continue;
         /* The sea is opaque: the sky below it does not reach a point above it. */
         if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)
