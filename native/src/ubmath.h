@@ -277,12 +277,14 @@ static inline double ub_pow(double x, double y)
 /* sin(rh + rl) for |rh| <= pi/4 + tiny, rl below half an ulp of rh. r - r^3/6 in double-double
  * (the cube by TwoProduct, the division by 6 with its remainder), then r^5 Q(r^2) (Taylor to
  * r^19/19!, at most 0.3 % of the result) and rl cos r in double: one rounding at the end. */
+static const double ub__sin_series[8] = {
+    0x1.1111111111111p-7, -0x1.a01a01a01a01ap-13, 0x1.71de3a556c734p-19,
+    -0x1.ae64567f544e4p-26, 0x1.6124613a86d09p-33, -0x1.ae7f3e733b81fp-41,
+    0x1.952c77030ad4ap-49, -0x1.2f49b46814157p-57}; /* (-1)^n/(2n+1)!, n = 2..9 */
+
 static inline double ub__sin_kernel(double rh, double rl)
 {
-    static const double q[8] = {
-        0x1.1111111111111p-7, -0x1.a01a01a01a01ap-13, 0x1.71de3a556c734p-19,
-        -0x1.ae64567f544e4p-26, 0x1.6124613a86d09p-33, -0x1.ae7f3e733b81fp-41,
-        0x1.952c77030ad4ap-49, -0x1.2f49b46814157p-57}; /* (-1)^n/(2n+1)!, n = 2..9 */
+    const double *q = ub__sin_series;
     double zl, zh = ub__two_prod(rh, rh, &zl);
     double cl, ch = ub__two_prod(rh, zh, &cl); /* r^3 = ch + cl */
     cl += rh * zl;
@@ -297,12 +299,14 @@ static inline double ub__sin_kernel(double rh, double rl)
 
 /* cos(rh + rl) for |rh| <= pi/4 + tiny: 1 - r^2/2 in double-double (r^2 by TwoProduct), then
  * r^4 C(r^2) (Taylor to r^20/20!) and -rh rl in double. */
+static const double ub__cos_series[9] = {
+    0x1.5555555555555p-5, -0x1.6c16c16c16c17p-10, 0x1.a01a01a01a01ap-16,
+    -0x1.27e4fb7789f5cp-22, 0x1.1eed8eff8d898p-29, -0x1.93974a8c07c9dp-37,
+    0x1.ae7f3e733b81fp-45, -0x1.6827863b97d97p-53, 0x1.e542ba4020225p-62}; /* (-1)^n/(2n)!, n = 2..10 */
+
 static inline double ub__cos_kernel(double rh, double rl)
 {
-    static const double c[9] = {
-        0x1.5555555555555p-5, -0x1.6c16c16c16c17p-10, 0x1.a01a01a01a01ap-16,
-        -0x1.27e4fb7789f5cp-22, 0x1.1eed8eff8d898p-29, -0x1.93974a8c07c9dp-37,
-        0x1.ae7f3e733b81fp-45, -0x1.6827863b97d97p-53, 0x1.e542ba4020225p-62};
+    const double *c = ub__cos_series;
     double zl, zh = ub__two_prod(rh, rh, &zl);
     double p = c[8];
     for (int i = 7; i >= 0; i--)

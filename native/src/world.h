@@ -224,13 +224,10 @@ static inline vd vd_two_prod(vd a, vd b, vd *e)
     return p;
 }
 
-/* ub__sin_kernel and ub__cos_kernel (their coefficients) in double vectors. */
+/* ub__sin_kernel and ub__cos_kernel in double vectors. */
 static inline vd vd_sin_kernel(vd rh, vd rl)
 {
-    static const double q[8] = {
-        0x1.1111111111111p-7, -0x1.a01a01a01a01ap-13, 0x1.71de3a556c734p-19,
-        -0x1.ae64567f544e4p-26, 0x1.6124613a86d09p-33, -0x1.ae7f3e733b81fp-41,
-        0x1.952c77030ad4ap-49, -0x1.2f49b46814157p-57};
+    const double *q = ub__sin_series;
     const vd six = vd_set1(6.0);
     vd zl, zh = vd_two_prod(rh, rh, &zl);
     vd cl, ch = vd_two_prod(rh, zh, &cl);
@@ -247,10 +244,7 @@ static inline vd vd_sin_kernel(vd rh, vd rl)
 
 static inline vd vd_cos_kernel(vd rh, vd rl)
 {
-    static const double c[9] = {
-        0x1.5555555555555p-5, -0x1.6c16c16c16c17p-10, 0x1.a01a01a01a01ap-16,
-        -0x1.27e4fb7789f5cp-22, 0x1.1eed8eff8d898p-29, -0x1.93974a8c07c9dp-37,
-        0x1.ae7f3e733b81fp-45, -0x1.6827863b97d97p-53, 0x1.e542ba4020225p-62};
+    const double *c = ub__cos_series;
     const vd one = vd_set1(1.0), half = vd_set1(0.5);
     vd zl, zh = vd_two_prod(rh, rh, &zl);
     vd p = vd_set1(c[8]);
