@@ -314,6 +314,14 @@ static void cone_fill(const ub_scene *sc, const ub_de_params *dps, int tx0, int 
         cone_batch(sc, dps, pending, n, cnt);
 }
 
+/* The certified start of the block of image pixel (px, py) (computed: cone_fill). */
+static inline double block_start(const ub_cone_cache *cc, int px, int py)
+{
+    double start;
+    __atomic_load(&cc->start[cone_index(cc, px, py)], &start, __ATOMIC_RELAXED);
+    return start;
+}
+
 /* Raise the t_min of the packet's camera rays (image pixels (px + step l, py)) to their block's
  * certified start. Returns the lanes whose block is empty (UB_CONE_EMPTY): past their start no ray
  * touches an object's bounding ball, so trace() would clip every object away (object_rays) and
@@ -321,11 +329,9 @@ static void cone_fill(const ub_scene *sc, const ub_de_params *dps, int tx0, int 
  * is such blocks (issue 21: 61 % of the peer scene's pixels take no step). */
 static int cone_start_rays(const ub_scene *sc, int px, int py, int step, int n, ub_packet_rays *pr)
 {
-    const ub_cone_cache *cc = sc->cones;
     int empty = 0;
     for (int l = 0; l < UB_LANES; l++) {
-        double start;
-        __atomic_load(&cc->start[cone_index(cc, px + step * (l < n ? l : n - 1), py)], &start, __ATOMIC_RELAXED);
+        const double start = block_start(sc->cones, px + step * (l < n ? l : n - 1), py);
         empty |= (start == UB_CONE_EMPTY) << l;
         pr->t_min[l] = ub_fmax(pr->t_min[l], start);
     }

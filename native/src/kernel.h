@@ -1203,14 +1203,10 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
 static int empty_packet(const ub_scene *sc, int x, int y, int n)
 {
     const ub_hit_buffer *hb = sc->hits;
-    const ub_cone_cache *cc = sc->cones;
     const int py = hb->y0 + hb->step * y;
-    for (int l = 0; l < n; l++) {
-        double start;
-        __atomic_load(&cc->start[cone_index(cc, hb->x0 + hb->step * (x + l), py)], &start, __ATOMIC_RELAXED);
-        if (start != UB_CONE_EMPTY)
+    for (int l = 0; l < n; l++)
+        if (block_start(sc->cones, hb->x0 + hb->step * (x + l), py) != UB_CONE_EMPTY)
             return 0;
-    }
     return 1;
 }
 

@@ -214,12 +214,18 @@ static inline vd vd_fast_two_sum(vd a, vd b, vd *e)
     return s;
 }
 
+static inline void vd_split(vd a, vd *hi, vd *lo)
+{
+    vd t = vd_mul(vd_set1(134217729.0), a); /* 2^27 + 1 */
+    *hi = vd_sub(t, vd_sub(t, a));
+    *lo = vd_sub(a, *hi);
+}
+
 static inline vd vd_two_prod(vd a, vd b, vd *e)
 {
-    const vd veltkamp = vd_set1(134217729.0);
-    vd p = vd_mul(a, b), ta = vd_mul(veltkamp, a), tb = vd_mul(veltkamp, b);
-    vd ah = vd_sub(ta, vd_sub(ta, a)), bh = vd_sub(tb, vd_sub(tb, b));
-    vd al = vd_sub(a, ah), bl = vd_sub(b, bh);
+    vd p = vd_mul(a, b), ah, al, bh, bl;
+    vd_split(a, &ah, &al);
+    vd_split(b, &bh, &bl);
     *e = vd_add(vd_add(vd_add(vd_sub(vd_mul(ah, bh), p), vd_mul(ah, bl)), vd_mul(al, bh)), vd_mul(al, bl));
     return p;
 }
@@ -483,9 +489,9 @@ static void world_sample_rays(const ub_scene *sc, const sample_point *sp, int px
                                             : 0.0;
         float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
         double wo[3] = {-pr->dir[0][l], -pr->dir[1][l], -pr->dir[2][l]}, d[3], w[3];
-        const double lane_azimuth[2] = {technique == 1 ? sine[l] : 0.0, technique == 1 ? cosine[l] : 0.0};
-        if (!world_direction_weight(wd, n, b, wo, technique, surface_only, r_lobe, r1[l], r2[l],
-                                    technique == 1 ? lane_azimuth : NULL, bd, N, d, w))
+        const double *lane_azimuth = technique == 1 ? (const double[2]){sine[l], cosine[l]} : NULL;
+        if (!world_direction_weight(wd, n, b, wo, technique, surface_only, r_lobe, r1[l], r2[l], lane_azimuth,
+                                    bd, N, d, w))
             continue;
         /* The sea is opaque: the sky below it does not reach a point above it. */
         if (sh->sea && sf->p[2][l] > sh->sea_height + sf->bias[l] && d[2] < 0.0)
