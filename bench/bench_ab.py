@@ -19,6 +19,7 @@ to another (the file `make wheel` wrote against a copy of it; two copies 2 % apa
 either order), which is where the copy's pages happen to lie in memory, not the build.
 
     python bench/bench_ab.py OLD/wheel NEW/wheel [--scene peer|all|NAME] [--rounds 6] [--threads 1] [--copies 3]
+        [--simd auto|avx512|avx2|portable]
 """
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ sys.path.insert(0, sys.argv[1])
 sys.path.insert(0, sys.argv[2])
 import numpy as np, unbound_core as uc
 import bench_effects as fx
-scene, threads = sys.argv[3], int(sys.argv[4])
+scene, threads, simd = sys.argv[3], int(sys.argv[4]), sys.argv[5]
 W, H = (1280, 1024) if scene == "peer" else (640, 512)
 cam = dict(matrix=uc.look_at((-2.0, -2.0, 1.0), (0, 0, 0), (0, 0, 1)),
            projection=uc.perspective(2 * math.atan(0.5), W / H, 0.1, 100.0), width=W, height=H)
@@ -47,9 +48,9 @@ if scene != "peer":
     obj = dict(obj, **over)
     names = uc.PASSES if scene == "all" else names
 p = {n: np.zeros((H, W, uc.PASS_CHANNELS[n]), np.float32) for n in names}
-uc.render(cam, [obj], p, shading=shading, threads=threads)
+uc.render(cam, [obj], p, shading=shading, threads=threads, simd=simd)
 c0 = time.process_time()
-uc.render(cam, [obj], p, shading=shading, threads=threads)
+uc.render(cam, [obj], p, shading=shading, threads=threads, simd=simd)
 c = time.process_time() - c0
 print(c, hashlib.sha256(b"".join(p[n].tobytes() for n in sorted(p))).hexdigest()[:16])
 '''
@@ -63,6 +64,7 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=6)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--copies", type=int, default=3, help="fresh copies of each build, run in turn")
+    ap.add_argument("--simd", default="auto", help="the kernel: auto, avx512, avx2 or portable")
     args = ap.parse_args(argv)
     bench_dir = __file__.rsplit("/", 1)[0] if "/" in __file__ else "."
     builds = (args.build_a, args.build_b)
@@ -74,15 +76,15 @@ def main(argv=None):
         for r in range(args.rounds):
             for b in builds:
                 out = subprocess.run([sys.executable, "-c", CHILD, copies[b][r % args.copies], bench_dir, args.scene,
-                                      str(args.threads)], capture_output=True, text=True, check=True).stdout.split()
+                                      str(args.threads), args.simd], capture_output=True, text=True, check=True).stdout.split()
                 cpu[b].append(float(out[0]))
                 digest[b] = out[1]
     for b in builds:
         v = cpu[b]
         print("%s: median %.4f s CPU (%.4f-%.4f), passes %s" % (b, statistics.median(v), min(v), max(v), digest[b]))
-    print("ratio A/B %.3f (%s scene, %d thread(s), %d rounds)%s" % (
+    print("ratio A/B %.3f (%s scene, %d thread(s), %s kernel, %d rounds)%s" % (
         statistics.median(cpu[builds[0]]) / statistics.median(cpu[builds[1]]), args.scene, args.threads,
-        args.rounds, "" if digest[builds[0]] == digest[builds[1]] else "; THE PASSES DIFFER"))
+        args.simd, args.rounds, "" if digest[builds[0]] == digest[builds[1]] else "; THE PASSES DIFFER"))
 
 
 if __name__ == "__main__":

@@ -314,26 +314,34 @@ static void cone_fill(const ub_scene *sc, const ub_de_params *dps, int tx0, int 
         cone_batch(sc, dps, pending, n, cnt);
 }
 
-/* The certified start of the block of image pixel (px, py) (computed: cone_fill). */
-static inline double block_start(const ub_cone_cache *cc, int px, int py)
+/* The certified starts of the blocks of image pixels (px + step l, py), l < UB_LANES (padding lanes
+ * l >= n repeat pixel n - 1), computed by cone_fill. The columns first, in a loop without
+ * branches (vector code), then one load a lane: no pixel coordinate is negative. */
+static void packet_starts(const ub_cone_cache *cc, int px, int py, int step, int n, double start[UB_LANES])
 {
-    double start;
-    __atomic_load(&cc->start[cone_index(cc, px, py)], &start, __ATOMIC_RELAXED);
-    return start;
+    const double *row = cc->start + (ptrdiff_t)(py / UB_CONE_BLOCK - cc->by0) * cc->nbx - cc->bx0;
+    unsigned column[UB_LANES];
+    for (int l = 0; l < UB_LANES; l++)
+        column[l] = (unsigned)(px + step * (l < n ? l : n - 1)) / UB_CONE_BLOCK;
+    for (int l = 0; l < UB_LANES; l++)
+        __atomic_load(&row[column[l]], &start[l], __ATOMIC_RELAXED);
 }
 
-/* Raise the t_min of the packet's camera rays (image pixels (px + step l, py)) to their block's
- * certified start. Returns the lanes whose block is empty (UB_CONE_EMPTY): past their start no ray
- * touches an object's bounding ball, so trace() would clip every object away (object_rays) and
- * find what it finds for a lane it is not given: no hit, no step. Most of a frame's background
- * is such blocks (issue 21: 61 % of the peer scene's pixels take no step). */
-static int cone_start_rays(const ub_scene *sc, int px, int py, int step, int n, ub_packet_rays *pr)
+/* The lanes whose block is empty (UB_CONE_EMPTY): past their start no ray touches an object's
+ * bounding ball, so trace() would clip every object away (object_rays) and find what it finds
+ * for a lane it is not given: no hit, no step. Most of a frame's background is such blocks
+ * (issue 21: 61 % of the peer scene's pixels take no step). */
+static inline int empty_lanes(const double start[UB_LANES])
 {
     int empty = 0;
-    for (int l = 0; l < UB_LANES; l++) {
-        const double start = block_start(sc->cones, px + step * (l < n ? l : n - 1), py);
-        empty |= (start == UB_CONE_EMPTY) << l;
-        pr->t_min[l] = ub_fmax(pr->t_min[l], start);
-    }
+    for (int l = 0; l < UB_LANES; l++)
+        empty |= (start[l] == UB_CONE_EMPTY) << l;
     return empty;
+}
+
+/* Raise the t_min of the packet's camera rays to their blocks' certified starts. */
+static void cone_start_rays(const double start[UB_LANES], ub_packet_rays *pr)
+{
+    for (int l = 0; l < UB_LANES; l++)
+        pr->t_min[l] = ub_fmax(pr->t_min[l], start[l]);
 }

@@ -1,7 +1,8 @@
 /* The render kernel, written once against the vf/vm vector interface and compiled twice
- * (kernel_avx2.c, kernel_portable.c). A packet is UB_LANES horizontally adjacent pixels; each
- * lane follows its own ray and the packet runs until all lanes are done. Lanes never interact,
- * so a pixel's value does not depend on the packet, tile or thread that computed it.
+ * (kernel_avx2.c, kernel_portable.c). A packet is UB_LANES horizontally adjacent pixels (camera
+ * rays march in square-ish blocks of as many: chunk_primary); each lane follows its own ray and the
+ * packet runs until all lanes are done. Lanes never interact, so a pixel's value does not depend
+ * on the packet, tile or thread that computed it.
  *
  * A render runs, for each anti-aliasing sample, two phases over the film: phase 0 marches the
  * camera rays into a hit buffer (the r^2 memory of the paper, plus a one-pixel apron), phase 1
@@ -140,88 +141,197 @@ static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, 
     return seen;
 }
 
-/* The camera rays of the n pixels from (x, y) on the hit buffer's grid, marched (from their
- * blocks' shared first steps): their hits into tr. Returns the lanes that see the scene. */
-static int primary_packet(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int x, int y, int n,
-                          ub_packet_rays *pr, ub_trace_result *tr, ub_counters *cnt)
-{
-    const ub_hit_buffer *hb = sc->hits;
-    int px = hb->x0 + hb->step * x, py = hb->y0 + hb->step * y;
-    int seen = camera_packet(sc->camera, px, py, hb->step, n, sp, 1, pr), empty = 0;
-    if (sc->cones) /* shared first steps: each ray starts where its block's cone is empty */
-        empty = cone_start_rays(sc, px, py, hb->step, n, pr);
-    /* Lanes outside a panoramic camera's lens, or in an empty block, come back as misses
-     * (UB_HIT_NONE). */
-    trace(sc, dps, pr, ((1 << n) - 1) & seen & ~empty, sc->shading->sea ? UB_TRACE_SEA : 0, NULL, tr, cnt);
-    uint64_t steps = 0;
-    for (int l = 0; l < n; l++)
-        steps += (uint64_t)tr->steps[l];
-    cnt->rays += (uint64_t)n;
-    cnt->steps += steps;
-    return seen;
-}
+/* Camera rays are marched in blocks of UB_BLOCK_W x UB_BLOCK_H pixels, while the passes are
+ * shaded and written in the rows' packets of UB_LANES x 1 pixels (issue 21). A packet marches
+ * until its last lane is done, so its lanes are only as busy as its rays are alike: on the peer
+ * frame the rows' packets kept 52 % of their lanes marching a paired step, square blocks 72 %
+ * (the steps of each pixel's camera ray, counted over the frame). A block's rays are copied from
+ * the rows' packets and their hits back, lane by lane: each lane's ray and march are its own, so
+ * the hits keep their bits. */
+#define UB_BLOCK_H 4
+#define UB_BLOCK_W (UB_LANES / UB_BLOCK_H)
+/* A chunk: UB_BLOCK_H rows of two row packets (2 UB_LANES pixels each), marched as 2 UB_BLOCK_H
+ * blocks, side by side. */
+#define UB_CHUNK_BLOCKS (2 * UB_BLOCK_H)
 
-/* primary_packet for the packets at x and x + UB_LANES (n[0] and n[1] pixels) at once, through
- * trace_pair: the same rays, hits and counts. */
-static void primary_pair(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int x, int y,
-                         const int n[2], ub_packet_rays pr[2], ub_trace_result tr[2], int seen[2], ub_counters *cnt)
-{
-    const ub_hit_buffer *hb = sc->hits;
-    int lanes[2];
-    for (int j = 0; j < 2; j++) {
-        int px = hb->x0 + hb->step * (x + j * UB_LANES), py = hb->y0 + hb->step * y;
-        seen[j] = camera_packet(sc->camera, px, py, hb->step, n[j], sp, 1, &pr[j]);
-        int empty = 0;
-        if (sc->cones)
-            empty = cone_start_rays(sc, px, py, hb->step, n[j], &pr[j]);
-        lanes[j] = ((1 << n[j]) - 1) & seen[j] & ~empty;
-    }
-    const ub_packet_rays *const both[2] = {&pr[0], &pr[1]};
-    trace_pair(sc, dps, both, lanes, sc->shading->sea ? UB_TRACE_SEA : 0, tr, cnt);
-    for (int j = 0; j < 2; j++) {
-        uint64_t steps = 0;
-        for (int l = 0; l < n[j]; l++)
-            steps += (uint64_t)tr[j].steps[l];
-        cnt->rays += (uint64_t)n[j];
-        cnt->steps += steps;
-    }
-}
-
-/* The camera rays and hits of a row's packets, traced two at a time (primary_packet_paired):
- * slot 0 the packet asked for, slot 1 the one after it, kept for the next call. The caller works
- * in the slots themselves (issue 21: copying a packet's 1.5 KB of rays and hits out and back was
- * 1.6 % of the peer render). */
 typedef struct {
-    ub_packet_rays pr[2];
-    ub_trace_result tr[2];
-    int seen[2];
-    int x, y; /* slot 1's packet; x < 0: nothing kept */
-} ub_primary_slots;
+    ub_packet_rays pr[UB_BLOCK_H][2];
+    ub_trace_result tr[UB_BLOCK_H][2];
+    int n[UB_BLOCK_H][2];      /* pixels of the row packet; 0: the chunk ends before it */
+    int seen[UB_BLOCK_H][2];   /* lanes that see the scene (camera_packet) */
+    int traced[UB_BLOCK_H][2]; /* lanes whose rays are marched */
+    /* Every ray of the packet lies in empty blocks: no rays, no trace (skip_background). */
+    int background[UB_BLOCK_H][2];
+} ub_chunk;
 
-/* The camera rays' hits of the packet at (x, y) of n pixels, as primary_packet gives them, in
- * *pr and *tr (pointing into `slots`). Where pairs pay (pair_traceable), the packet at
- * x + UB_LANES is traced with it into slot 1, which the following call hands out. */
-static int primary_packet_paired(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int pairs,
-                                 int x, int y, int n, int x_end, ub_primary_slots *slots, ub_packet_rays **pr,
-                                 ub_trace_result **tr, ub_counters *cnt)
+/* Row r of block b is UB_BLOCK_W adjacent lanes of one row packet, (r, chunk_packet(b)), from its
+ * lane chunk_lane(b): blocks and packets trade rays and hits a row segment at a time. */
+static inline int chunk_packet(int b)
 {
-    if (slots->x == x && slots->y == y) {
-        slots->x = -1;
-        *pr = &slots->pr[1];
-        *tr = &slots->tr[1];
-        return slots->seen[1];
+    return b * UB_BLOCK_W / UB_LANES;
+}
+
+static inline int chunk_lane(int b)
+{
+    return b * UB_BLOCK_W % UB_LANES;
+}
+
+/* Whether the chunk holds rays in row packet (r, j). */
+static inline int chunk_has_rays(const ub_chunk *ch, int r, int j)
+{
+    return ch->n[r][j] && !ch->background[r][j];
+}
+
+/* The camera rays of the chunk's row packets (hit-buffer pixels from (x, y), up to x_end, y_end),
+ * from their blocks' shared first steps. With skip_background, packets all of whose rays lie in
+ * empty blocks (UB_CONE_EMPTY) get none. */
+static void chunk_rays(const ub_scene *sc, const sample_point *sp, int skip_background, int x, int y, int x_end,
+                       int y_end, ub_chunk *ch)
+{
+    const ub_hit_buffer *hb = sc->hits;
+    for (int r = 0; r < UB_BLOCK_H; r++)
+        for (int j = 0; j < 2; j++) {
+            const int xj = x + j * UB_LANES, yr = y + r;
+            const int n = yr < y_end && xj < x_end ? (x_end - xj < UB_LANES ? x_end - xj : UB_LANES) : 0;
+            ch->n[r][j] = n;
+            ch->traced[r][j] = ch->seen[r][j] = 0;
+            ch->background[r][j] = 0;
+            if (!n)
+                continue;
+            const int px = hb->x0 + hb->step * xj, py = hb->y0 + hb->step * yr, all = (1 << n) - 1;
+            double start[UB_LANES];
+            int empty = 0;
+            if (sc->cones) { /* shared first steps: each ray starts where its block's cone is empty */
+                packet_starts(sc->cones, px, py, hb->step, n, start);
+                empty = empty_lanes(start);
+            }
+            ch->background[r][j] = skip_background && (empty & all) == all;
+            if (ch->background[r][j])
+                continue;
+            ub_packet_rays *pr = &ch->pr[r][j];
+            ch->seen[r][j] = camera_packet(sc->camera, px, py, hb->step, n, sp, 1, pr);
+            /* Lanes outside a panoramic camera's lens, or in an empty block, come back as misses
+             * (UB_HIT_NONE). */
+            if (sc->cones)
+                cone_start_rays(start, pr);
+            ch->traced[r][j] = ((1 << n) - 1) & ch->seen[r][j] & ~empty;
+        }
+}
+
+/* Block b's rays from the chunk's row packets; returns its lanes to march (0 with no ray at all:
+ * then nothing is written). Row segments where the chunk has no ray get rays along the camera's
+ * axis with an empty range, which are not marched. */
+static int chunk_block(const ub_scene *sc, const ub_chunk *ch, int b, ub_packet_rays *bp, int *any_rays)
+{
+    const int j = chunk_packet(b), c0 = chunk_lane(b);
+    const size_t seg = UB_BLOCK_W * sizeof(double);
+    int lanes = 0;
+    *any_rays = 0;
+    for (int r = 0; r < UB_BLOCK_H; r++)
+        *any_rays |= chunk_has_rays(ch, r, j);
+    if (!*any_rays)
+        return 0;
+    for (int r = 0; r < UB_BLOCK_H; r++) {
+        const int l0 = r * UB_BLOCK_W;
+        if (chunk_has_rays(ch, r, j)) {
+            const ub_packet_rays *pr = &ch->pr[r][j];
+            for (int i = 0; i < 3; i++) {
+                memcpy(&bp->origin[i][l0], &pr->origin[i][c0], seg);
+                memcpy(&bp->dir[i][l0], &pr->dir[i][c0], seg);
+            }
+            memcpy(&bp->t_min[l0], &pr->t_min[c0], seg);
+            memcpy(&bp->t_max[l0], &pr->t_max[c0], seg);
+            memcpy(&bp->t_base[l0], &pr->t_base[c0], UB_BLOCK_W * sizeof(float));
+            lanes |= ((ch->traced[r][j] >> c0) & ((1 << UB_BLOCK_W) - 1)) << l0;
+        } else {
+            for (int l = l0; l < l0 + UB_BLOCK_W; l++) {
+                for (int i = 0; i < 3; i++) {
+                    bp->origin[i][l] = sc->camera->position[i];
+                    bp->dir[i][l] = sc->camera->forward[i];
+                }
+                bp->t_min[l] = bp->t_max[l] = 0.0;
+                bp->t_base[l] = 0.0f;
+            }
+        }
     }
-    *pr = &slots->pr[0];
-    *tr = &slots->tr[0];
-    if (pairs && x + UB_LANES < x_end) {
-        int rest = x_end - x - UB_LANES;
-        const int n2[2] = {n, rest < UB_LANES ? rest : UB_LANES};
-        primary_pair(sc, dps, sp, x, y, n2, slots->pr, slots->tr, slots->seen, cnt);
-        slots->x = x + UB_LANES;
-        slots->y = y;
-        return slots->seen[0];
+    return lanes;
+}
+
+/* Block b's hits into the chunk's row packets. */
+static void chunk_hits(const ub_trace_result *bt, int b, ub_chunk *ch)
+{
+    const int j = chunk_packet(b), c0 = chunk_lane(b);
+    const size_t seg = UB_BLOCK_W * sizeof(float), iseg = UB_BLOCK_W * sizeof(int);
+    for (int r = 0; r < UB_BLOCK_H; r++) {
+        if (!chunk_has_rays(ch, r, j))
+            continue;
+        const int l0 = r * UB_BLOCK_W;
+        ub_trace_result *tr = &ch->tr[r][j];
+        memcpy(&tr->t[c0], &bt->t[l0], seg);
+        memcpy(&tr->iters[c0], &bt->iters[l0], seg);
+        memcpy(&tr->dist[c0], &bt->dist[l0], seg);
+        memcpy(&tr->steps[c0], &bt->steps[l0], seg);
+        memcpy(&tr->penumbra[c0], &bt->penumbra[l0], seg);
+        memcpy(&tr->object[c0], &bt->object[l0], iseg);
+        memcpy(&tr->out_of_steps[c0], &bt->out_of_steps[l0], iseg);
     }
-    return primary_packet(sc, dps, sp, x, y, n, *pr, *tr, cnt);
+}
+
+/* The camera rays and hits of the chunk at hit-buffer pixel (x, y): rays by row packet, marched
+ * by block, two blocks at a time where pairs pay (pair_traceable); blocks with rays to march are
+ * paired with each other, wherever they are in the chunk. Padding lanes of a short packet repeat
+ * its last pixel's hit. */
+static void chunk_primary(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int pairs,
+                          int skip_background, int x, int y, int x_end, int y_end, ub_chunk *ch, ub_counters *cnt)
+{
+    chunk_rays(sc, sp, skip_background, x, y, x_end, y_end, ch);
+    ub_packet_rays bp[UB_CHUNK_BLOCKS];
+    ub_trace_result bt[UB_CHUNK_BLOCKS];
+    int lanes[UB_CHUNK_BLOCKS], rays[UB_CHUNK_BLOCKS], busy[UB_CHUNK_BLOCKS], n_busy = 0;
+    const unsigned flags = sc->shading->sea ? UB_TRACE_SEA : 0;
+    for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
+        lanes[b] = chunk_block(sc, ch, b, &bp[b], &rays[b]);
+        if (lanes[b] && pairs)
+            busy[n_busy++] = b;
+        else if (rays[b]) /* nothing to march (the misses' results), or no pairs */
+            trace(sc, dps, &bp[b], lanes[b], flags, NULL, &bt[b], cnt);
+    }
+    for (int i = 0; i < n_busy; i += 2) {
+        if (i + 1 == n_busy) {
+            trace(sc, dps, &bp[busy[i]], lanes[busy[i]], flags, NULL, &bt[busy[i]], cnt);
+            break;
+        }
+        const ub_packet_rays *const both[2] = {&bp[busy[i]], &bp[busy[i + 1]]};
+        const int both_lanes[2] = {lanes[busy[i]], lanes[busy[i + 1]]};
+        ub_trace_result both_tr[2];
+        trace_pair(sc, dps, both, both_lanes, flags, both_tr, cnt);
+        bt[busy[i]] = both_tr[0];
+        bt[busy[i + 1]] = both_tr[1];
+    }
+    for (int b = 0; b < UB_CHUNK_BLOCKS; b++)
+        if (rays[b])
+            chunk_hits(&bt[b], b, ch);
+    for (int r = 0; r < UB_BLOCK_H; r++)
+        for (int j = 0; j < 2; j++) {
+            const int n = ch->n[r][j];
+            if (!n || ch->background[r][j])
+                continue;
+            ub_trace_result *tr = &ch->tr[r][j];
+            uint64_t steps = 0;
+            for (int l = 0; l < n; l++)
+                steps += (uint64_t)tr->steps[l];
+            cnt->rays += (uint64_t)n;
+            cnt->steps += steps;
+            for (int l = n; l < UB_LANES; l++) {
+                tr->t[l] = tr->t[n - 1];
+                tr->iters[l] = tr->iters[n - 1];
+                tr->dist[l] = tr->dist[n - 1];
+                tr->steps[l] = tr->steps[n - 1];
+                tr->penumbra[l] = tr->penumbra[n - 1];
+                tr->object[l] = tr->object[n - 1];
+                tr->out_of_steps[l] = tr->out_of_steps[n - 1];
+            }
+        }
 }
 
 /* The de_params of the scene's objects, for one tile. */
@@ -243,20 +353,20 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
     if (sc->cones)
         cone_fill(sc, dps, tx0, ty0, tx1, ty1, cnt);
     const int pairs = pair_traceable(sc, dps);
-    ub_primary_slots slots;
-    slots.x = -1;
-    for (int y = ty0; y < ty1; y++) {
-        for (int x = tx0; x < tx1; x += UB_LANES) {
+    ub_chunk ch;
+    for (int y = ty0; y < ty1; y += UB_BLOCK_H) {
+        for (int x = tx0; x < tx1; x += 2 * UB_LANES) {
             if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                 return;
-            int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
-            ub_packet_rays *pr;
-            ub_trace_result *tr;
-            primary_packet_paired(sc, dps, &sp, pairs, x, y, n, tx1, &slots, &pr, &tr, cnt);
-            ub_hit *h = &hb->hits[(size_t)y * hb->w + x];
-            for (int l = 0; l < n; l++)
-                h[l] = (ub_hit){tr->t[l], tr->iters[l], tr->dist[l], tr->steps[l], (int16_t)tr->object[l],
-                                (int16_t)tr->out_of_steps[l]};
+            chunk_primary(sc, dps, &sp, pairs, 0, x, y, tx1, ty1, &ch, cnt);
+            for (int r = 0; r < UB_BLOCK_H; r++)
+                for (int j = 0; j < 2; j++) {
+                    const ub_trace_result *tr = &ch.tr[r][j];
+                    ub_hit *h = &hb->hits[(size_t)(y + r) * hb->w + x + j * UB_LANES];
+                    for (int l = 0; l < ch.n[r][j]; l++)
+                        h[l] = (ub_hit){tr->t[l], tr->iters[l], tr->dist[l], tr->steps[l], (int16_t)tr->object[l],
+                                        (int16_t)tr->out_of_steps[l]};
+                }
         }
     }
 }
@@ -1198,19 +1308,7 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
     put_lanes(pass[UB_PASS_ORBIT_TRAP], idx, 1, n, &ps->pass_trap, sample, S, PASS_AVERAGED);
 }
 
-/* Whether the n camera rays from hit-buffer pixel (x, y) all lie in empty blocks (cone.h,
- * UB_CONE_EMPTY): what trace() finds for them is known without their rays. */
-static int empty_packet(const ub_scene *sc, int x, int y, int n)
-{
-    const ub_hit_buffer *hb = sc->hits;
-    const int py = hb->y0 + hb->step * y;
-    for (int l = 0; l < n; l++)
-        if (block_start(sc->cones, hb->x0 + hb->step * (x + l), py) != UB_CONE_EMPTY)
-            return 0;
-    return 1;
-}
-
-/* The paths of a packet none of whose camera rays is traced (empty_packet), without a World map
+/* The paths of a packet none of whose camera rays is traced (chunk_rays), without a World map
  * or with a constant one (Blender's default World): what tile_shade makes of its trace results
  * (nothing hit, no step) and the background, which then does not depend on the rays. Issue 21:
  * most of a frame's background is such packets, and their camera rays, clipping and paths were a
@@ -1231,10 +1329,69 @@ static void background_paths(const ub_scene *sc, ub_paths *ps)
     add_background(sc, 0, UB_ALL_LANES, &any, &missed, ps);
 }
 
-/* Phase 1 over one tile: each packet's paths bounce by bounce, then its passes. The camera rays'
- * hits come from the hit buffer, or with `trace_first` (UB_PHASE_TRACE_AND_SHADE) from marching
- * them right here: the same hits (the buffer keeps trace's values exactly), without the round trip
- * of 20 bytes a pixel through memory and with one camera ray per pixel instead of two. */
+/* What tile_shade's packets share. */
+typedef struct {
+    const ub_scene *sc;
+    const ub_de_params *dps;
+    sample_point sp;
+    int sample, want_trap, use_ao;
+} ub_tile_shading;
+
+/* One packet's paths, bounce by bounce, from its camera rays pr and their hits tr (both reused
+ * for the later bounces), then its passes. Returns 0 when the render was cancelled. */
+static int shade_packet(const ub_tile_shading *ts, int x, int y, int n, int seen, ub_packet_rays *pr,
+                        ub_trace_result *tr, ub_counters *cnt)
+{
+    const ub_scene *sc = ts->sc;
+    const ub_de_params *dps = ts->dps;
+    const ub_film *film = sc->film;
+    const ub_shading *sh = sc->shading;
+    ub_paths ps;
+    start_paths(tr, &ps);
+    int alive = ((1 << n) - 1) & seen;
+    ps.unseen = ~seen;
+    for (int bounce = 0; alive; bounce++) {
+        if (bounce > 0) {
+            trace(sc, dps, pr, alive, sh->sea ? UB_TRACE_SEA : 0, NULL, tr, cnt);
+            for (int l = 0; l < UB_LANES; l++)
+                if ((alive >> l) & 1)
+                    cnt->steps += (uint64_t)tr->steps[l];
+            if (cancelled(sc))
+                return 0;
+        }
+        int hit_lanes = add_background(sc, bounce, alive, pr, tr, &ps);
+        if (!hit_lanes)
+            break;
+        ub_surface sf;
+        surface(sc, dps, &ts->sp, bounce, x, y, pr, tr, hit_lanes, ts->want_trap && bounce == 0, &sf, cnt);
+        if (cancelled(sc))
+            return 0;
+        float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
+        const int px0 = film->x0 + film->step * x, py = film->y0 + film->step * y;
+        gi_plan plan;
+        if (sh->gi)
+            gi_plan_bounces(sh, &ts->sp, px0, py, film->step, bounce, hit_lanes, pr, &sf, &ps, &plan);
+        lights_and_world(sc, dps, &ts->sp, px0, py, film->step, bounce, hit_lanes, pr, tr, &sf,
+                         sh->gi ? plan.bd : NULL, direct, shadow, cnt);
+        if (ts->use_ao)
+            ambient_occlusion(sc, dps, hit_lanes, sf.p, sf.n, ao);
+        else
+            for (int l = 0; l < UB_LANES; l++)
+                ao[l] = 1.0f;
+        if (cancelled(sc))
+            return 0;
+        alive = add_surface_light(sc, bounce, hit_lanes, &sf, direct, shadow, ao, tr, sh->gi ? &plan : NULL, pr,
+                                  &ps);
+    }
+    write_passes(sc, ts->sample, x, y, n, &ps, cnt);
+    return 1;
+}
+
+/* Phase 1 over one tile: each packet's paths bounce by bounce, then its passes (shade_packet).
+ * The camera rays' hits come from the hit buffer, or with `trace_first`
+ * (UB_PHASE_TRACE_AND_SHADE) from marching them right here, a chunk of blocks at a time
+ * (chunk_primary): the same hits (the buffer keeps trace's values exactly), without the round
+ * trip of 20 bytes a pixel through memory and with one camera ray per pixel instead of two. */
 static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0, int ty0, int tx1, int ty1,
                        ub_counters *cnt)
 {
@@ -1243,95 +1400,56 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
     const ub_shading *sh = sc->shading;
     ub_de_params dps[UB_MAX_OBJECTS];
     tile_de_params(sc, dps);
-    const int want_trap = film->pass[UB_PASS_ORBIT_TRAP] != NULL;
+    ub_tile_shading ts = {sc, dps, sample_point_of(sample), sample, film->pass[UB_PASS_ORBIT_TRAP] != NULL, 0};
     /* AO only changes the ambient term: without ambient light it is needed for its pass alone. */
-    const int use_ao = sh->ao_strength > 0.0f
-                    && ((!sh->gi && (sh->ambient[0] > 0.0f || sh->ambient[1] > 0.0f || sh->ambient[2] > 0.0f))
-                        || film->pass[UB_PASS_AO] != NULL);
-    const sample_point sp = sample_point_of(sample);
-    if (trace_first && sc->cones)
+    ts.use_ao = sh->ao_strength > 0.0f
+             && ((!sh->gi && (sh->ambient[0] > 0.0f || sh->ambient[1] > 0.0f || sh->ambient[2] > 0.0f))
+                 || film->pass[UB_PASS_AO] != NULL);
+    if (!trace_first) {
+        for (int y = ty0; y < ty1; y++)
+            for (int x = tx0; x < tx1; x += UB_LANES) {
+                if (cancelled(sc))
+                    return;
+                const int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
+                ub_packet_rays pr;
+                ub_trace_result tr;
+                int seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n,
+                                         &ts.sp, 0, &pr);
+                buffered_hits(sc->hits, x, y, n, &tr);
+                if (!shade_packet(&ts, x, y, n, seen, &pr, &tr, cnt))
+                    return;
+            }
+        return;
+    }
+    if (sc->cones)
         cone_fill(sc, dps, tx0, ty0, tx1, ty1, cnt);
     const int pairs = pair_traceable(sc, dps);
-    ub_primary_slots slots;
-    slots.x = -1;
-    /* The paths of a packet that sees only the film's background (empty_packet), made once. */
-    const int background_only = trace_first && sc->cones && (!sc->world || world_is_constant(sc->world));
+    /* The paths of a packet that sees only the film's background (chunk_rays), made once. */
+    const int background_only = sc->cones && (!sc->world || world_is_constant(sc->world));
     ub_paths background;
     if (background_only)
         background_paths(sc, &background);
-
-    for (int y = ty0; y < ty1; y++) {
-        for (int x = tx0; x < tx1; x += UB_LANES) {
-            if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
+    ub_chunk ch;
+    for (int y = ty0; y < ty1; y += UB_BLOCK_H)
+        for (int x = tx0; x < tx1; x += 2 * UB_LANES) {
+            if (cancelled(sc))
                 return;
-            int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
-            /* (Not one traced already as the second of a pair: counted there.) */
-            if (background_only && !(slots.x == x && slots.y == y) && empty_packet(sc, x, y, n)) {
-                cnt->rays += (uint64_t)n;
-                write_passes(sc, sample, x, y, n, &background, cnt);
-                continue;
-            }
-            ub_packet_rays *pr = &slots.pr[0];
-            ub_trace_result *tr = &slots.tr[0];
-            ub_paths ps;
-            int seen;
-            if (trace_first) {
-                seen = primary_packet_paired(sc, dps, &sp, pairs, x, y, n, tx1, &slots, &pr, &tr, cnt);
-                if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
-                    return;
-                /* Padding lanes repeat the last real pixel, as buffered_hits gives them. */
-                for (int l = n; l < UB_LANES; l++) {
-                    tr->t[l] = tr->t[n - 1];
-                    tr->iters[l] = tr->iters[n - 1];
-                    tr->dist[l] = tr->dist[n - 1];
-                    tr->steps[l] = tr->steps[n - 1];
-                    tr->object[l] = tr->object[n - 1];
-                    tr->out_of_steps[l] = tr->out_of_steps[n - 1];
-                }
-            } else {
-                seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n, &sp,
-                                     0, pr);
-                buffered_hits(sc->hits, x, y, n, tr);
-            }
-            start_paths(tr, &ps);
-            int alive = ((1 << n) - 1) & seen;
-            ps.unseen = ~seen;
-            for (int bounce = 0; alive; bounce++) {
-                if (bounce > 0) {
-                    trace(sc, dps, pr, alive, sh->sea ? UB_TRACE_SEA : 0, NULL, tr, cnt);
-                    for (int l = 0; l < UB_LANES; l++)
-                        if ((alive >> l) & 1)
-                            cnt->steps += (uint64_t)tr->steps[l];
-                    if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
+            chunk_primary(sc, dps, &ts.sp, pairs, background_only, x, y, tx1, ty1, &ch, cnt);
+            if (cancelled(sc))
+                return;
+            for (int r = 0; r < UB_BLOCK_H; r++)
+                for (int j = 0; j < 2; j++) {
+                    const int n = ch.n[r][j], xj = x + j * UB_LANES;
+                    if (!n)
+                        continue;
+                    if (ch.background[r][j]) {
+                        cnt->rays += (uint64_t)n;
+                        write_passes(sc, sample, xj, y + r, n, &background, cnt);
+                    } else if (!shade_packet(&ts, xj, y + r, n, ch.seen[r][j], &ch.pr[r][j], &ch.tr[r][j], cnt)) {
                         return;
+                    }
                 }
-                int hit_lanes = add_background(sc, bounce, alive, pr, tr, &ps);
-                if (!hit_lanes)
-                    break;
-                ub_surface sf;
-                surface(sc, dps, &sp, bounce, x, y, pr, tr, hit_lanes, want_trap && bounce == 0, &sf, cnt);
-                if (cancelled(sc))
-                    return;
-                float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
-                const int px0 = film->x0 + film->step * x, py = film->y0 + film->step * y;
-                gi_plan plan;
-                if (sh->gi)
-                    gi_plan_bounces(sh, &sp, px0, py, film->step, bounce, hit_lanes, pr, &sf, &ps, &plan);
-                lights_and_world(sc, dps, &sp, px0, py, film->step, bounce, hit_lanes, pr, tr, &sf,
-                                 sh->gi ? plan.bd : NULL, direct, shadow, cnt);
-                if (use_ao)
-                    ambient_occlusion(sc, dps, hit_lanes, sf.p, sf.n, ao);
-                else
-                    for (int l = 0; l < UB_LANES; l++)
-                        ao[l] = 1.0f;
-                if (cancelled(sc))
-                    return;
-                alive = add_surface_light(sc, bounce, hit_lanes, &sf, direct, shadow, ao, tr,
-                                          sh->gi ? &plan : NULL, pr, &ps);
-            }
-            write_passes(sc, sample, x, y, n, &ps, cnt);
         }
-    }
 }
 
 void UB_ENTRY(ub_render_tile)(const ub_scene *sc, int phase, int sample, int tx0, int ty0, int tx1, int ty1,
