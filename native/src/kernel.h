@@ -57,6 +57,21 @@ static sample_point sample_point_of(int sample)
     return sp;
 }
 
+/* The full-image pixel of each lane of a packet: its random numbers are the pixel's (a row's
+ * packet, or a block of rows: chunk_primary). */
+typedef struct {
+    int px[UB_LANES], py[UB_LANES];
+} ub_lane_pixels;
+
+/* Lane l is full-image pixel (px0 + step l, py). */
+static void row_pixels(int px0, int py, int step, ub_lane_pixels *pix)
+{
+    for (int l = 0; l < UB_LANES; l++) {
+        pix->px[l] = px0 + step * l;
+        pix->py[l] = py;
+    }
+}
+
 /* Camera ray of full-image pixel (px, py) in sample `sp`: at its sub-pixel offset and, with depth
  * of field, through the pixel's lens sample; 0 where a panoramic camera sees nothing. */
 static int pixel_ray(const ub_camera *cam, int px, int py, const sample_point *sp, double o[3], double d[3],
@@ -141,31 +156,38 @@ static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, 
     return seen;
 }
 
-/* Camera rays are marched in blocks of UB_BLOCK_W x UB_BLOCK_H pixels, while the passes are
- * shaded and written in the rows' packets of UB_LANES x 1 pixels (issue 21). A packet marches
- * until its last lane is done, so its lanes are only as busy as its rays are alike: on the peer
- * frame the rows' packets kept 52 % of their lanes marching a paired step, square blocks 72 %
- * (the steps of each pixel's camera ray, counted over the frame). A block's rays are copied from
- * the rows' packets and their hits back, lane by lane: each lane's ray and march are its own, so
- * the hits keep their bits. */
+/* Packets of camera rays are blocks of UB_BLOCK_W x UB_BLOCK_H pixels, marched and shaded as
+ * blocks: only the passes are written in the rows' packets of UB_LANES x 1 pixels (issue 21). A
+ * packet runs until its last lane is done, so its lanes are only as busy as its rays are alike:
+ * on the peer frame a pair of the rows' packets kept 52 % of its lanes marching a step, a pair of
+ * square blocks 72 % (each pixel's camera ray's steps, counted over the frame); the shadow,
+ * World and reflection rays of a block's hits are alike in the same way. A block's camera rays
+ * are copied from the rows' packets and its paths back, a row segment at a time: each lane's
+ * ray, march, random numbers (its own pixel's) and shading are its own, so every pass keeps its
+ * bits. */
 #define UB_BLOCK_H 4
 #define UB_BLOCK_W (UB_LANES / UB_BLOCK_H)
-/* A chunk: UB_BLOCK_H rows of two row packets (2 UB_LANES pixels each), marched as 2 UB_BLOCK_H
- * blocks, side by side. */
+/* A chunk: UB_BLOCK_H rows of two row packets (2 UB_LANES pixels each), 2 UB_BLOCK_H blocks side
+ * by side. */
 #define UB_CHUNK_BLOCKS (2 * UB_BLOCK_H)
 
 typedef struct {
+    /* The rows' packets: their camera rays (camera_packet), and what the blocks take of them. */
     ub_packet_rays pr[UB_BLOCK_H][2];
-    ub_trace_result tr[UB_BLOCK_H][2];
     int n[UB_BLOCK_H][2];      /* pixels of the row packet; 0: the chunk ends before it */
     int seen[UB_BLOCK_H][2];   /* lanes that see the scene (camera_packet) */
     int traced[UB_BLOCK_H][2]; /* lanes whose rays are marched */
     /* Every ray of the packet lies in empty blocks: no rays, no trace (skip_background). */
     int background[UB_BLOCK_H][2];
+    /* The blocks: their camera rays and hits, the lanes that are pixels of the chunk's row
+     * packets with rays (valid), of which `seen` see the scene and `traced` were marched. */
+    ub_packet_rays bp[UB_CHUNK_BLOCKS];
+    ub_trace_result bt[UB_CHUNK_BLOCKS];
+    int valid[UB_CHUNK_BLOCKS], block_seen[UB_CHUNK_BLOCKS], block_traced[UB_CHUNK_BLOCKS];
 } ub_chunk;
 
 /* Row r of block b is UB_BLOCK_W adjacent lanes of one row packet, (r, chunk_packet(b)), from its
- * lane chunk_lane(b): blocks and packets trade rays and hits a row segment at a time. */
+ * lane chunk_lane(b): blocks and packets trade rays and paths a row segment at a time. */
 static inline int chunk_packet(int b)
 {
     return b * UB_BLOCK_W / UB_LANES;
@@ -180,6 +202,12 @@ static inline int chunk_lane(int b)
 static inline int chunk_has_rays(const ub_chunk *ch, int r, int j)
 {
     return ch->n[r][j] && !ch->background[r][j];
+}
+
+/* The lanes of a row segment of block b from a row-packet mask m. */
+static inline int segment_bits(int m, int b, int r)
+{
+    return ((m >> chunk_lane(b)) & ((1 << UB_BLOCK_W) - 1)) << (r * UB_BLOCK_W);
 }
 
 /* The camera rays of the chunk's row packets (hit-buffer pixels from (x, y), up to x_end, y_end),
@@ -214,23 +242,18 @@ static void chunk_rays(const ub_scene *sc, const sample_point *sp, int skip_back
              * (UB_HIT_NONE). */
             if (sc->cones)
                 cone_start_rays(start, pr);
-            ch->traced[r][j] = ((1 << n) - 1) & ch->seen[r][j] & ~empty;
+            ch->traced[r][j] = all & ch->seen[r][j] & ~empty;
         }
 }
 
-/* Block b's rays from the chunk's row packets; returns its lanes to march (0 with no ray at all:
- * then nothing is written). Row segments where the chunk has no ray get rays along the camera's
- * axis with an empty range, which are not marched. */
-static int chunk_block(const ub_scene *sc, const ub_chunk *ch, int b, ub_packet_rays *bp, int *any_rays)
+/* Block b's rays from the chunk's row packets, and its masks. Row segments where the chunk has no
+ * ray get rays along the camera's axis with an empty range, which are neither marched nor shaded. */
+static void chunk_block(const ub_scene *sc, ub_chunk *ch, int b)
 {
     const int j = chunk_packet(b), c0 = chunk_lane(b);
     const size_t seg = UB_BLOCK_W * sizeof(double);
-    int lanes = 0;
-    *any_rays = 0;
-    for (int r = 0; r < UB_BLOCK_H; r++)
-        *any_rays |= chunk_has_rays(ch, r, j);
-    if (!*any_rays)
-        return 0;
+    ub_packet_rays *bp = &ch->bp[b];
+    ch->valid[b] = ch->block_seen[b] = ch->block_traced[b] = 0;
     for (int r = 0; r < UB_BLOCK_H; r++) {
         const int l0 = r * UB_BLOCK_W;
         if (chunk_has_rays(ch, r, j)) {
@@ -242,7 +265,9 @@ static int chunk_block(const ub_scene *sc, const ub_chunk *ch, int b, ub_packet_
             memcpy(&bp->t_min[l0], &pr->t_min[c0], seg);
             memcpy(&bp->t_max[l0], &pr->t_max[c0], seg);
             memcpy(&bp->t_base[l0], &pr->t_base[c0], UB_BLOCK_W * sizeof(float));
-            lanes |= ((ch->traced[r][j] >> c0) & ((1 << UB_BLOCK_W) - 1)) << l0;
+            ch->valid[b] |= segment_bits((1 << ch->n[r][j]) - 1, b, r);
+            ch->block_seen[b] |= segment_bits(ch->seen[r][j], b, r);
+            ch->block_traced[b] |= segment_bits(ch->traced[r][j], b, r);
         } else {
             for (int l = l0; l < l0 + UB_BLOCK_W; l++) {
                 for (int i = 0; i < 3; i++) {
@@ -254,84 +279,47 @@ static int chunk_block(const ub_scene *sc, const ub_chunk *ch, int b, ub_packet_
             }
         }
     }
-    return lanes;
 }
 
-/* Block b's hits into the chunk's row packets. */
-static void chunk_hits(const ub_trace_result *bt, int b, ub_chunk *ch)
-{
-    const int j = chunk_packet(b), c0 = chunk_lane(b);
-    const size_t seg = UB_BLOCK_W * sizeof(float), iseg = UB_BLOCK_W * sizeof(int);
-    for (int r = 0; r < UB_BLOCK_H; r++) {
-        if (!chunk_has_rays(ch, r, j))
-            continue;
-        const int l0 = r * UB_BLOCK_W;
-        ub_trace_result *tr = &ch->tr[r][j];
-        memcpy(&tr->t[c0], &bt->t[l0], seg);
-        memcpy(&tr->iters[c0], &bt->iters[l0], seg);
-        memcpy(&tr->dist[c0], &bt->dist[l0], seg);
-        memcpy(&tr->steps[c0], &bt->steps[l0], seg);
-        memcpy(&tr->penumbra[c0], &bt->penumbra[l0], seg);
-        memcpy(&tr->object[c0], &bt->object[l0], iseg);
-        memcpy(&tr->out_of_steps[c0], &bt->out_of_steps[l0], iseg);
-    }
-}
-
-/* The camera rays and hits of the chunk at hit-buffer pixel (x, y): rays by row packet, marched
- * by block, two blocks at a time where pairs pay (pair_traceable); blocks with rays to march are
- * paired with each other, wherever they are in the chunk. Padding lanes of a short packet repeat
- * its last pixel's hit. */
+/* The camera rays and hits of the chunk at hit-buffer pixel (x, y), in its blocks: rays by row
+ * packet, marched by block, two blocks at a time where pairs pay (pair_traceable); blocks with
+ * rays to march are paired with each other, wherever they are in the chunk. */
 static void chunk_primary(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int pairs,
                           int skip_background, int x, int y, int x_end, int y_end, ub_chunk *ch, ub_counters *cnt)
 {
     chunk_rays(sc, sp, skip_background, x, y, x_end, y_end, ch);
-    ub_packet_rays bp[UB_CHUNK_BLOCKS];
-    ub_trace_result bt[UB_CHUNK_BLOCKS];
-    int lanes[UB_CHUNK_BLOCKS], rays[UB_CHUNK_BLOCKS], busy[UB_CHUNK_BLOCKS], n_busy = 0;
+    int busy[UB_CHUNK_BLOCKS], n_busy = 0;
     const unsigned flags = sc->shading->sea ? UB_TRACE_SEA : 0;
     for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
-        lanes[b] = chunk_block(sc, ch, b, &bp[b], &rays[b]);
-        if (lanes[b] && pairs)
+        chunk_block(sc, ch, b);
+        if (!ch->valid[b])
+            continue;
+        if (ch->block_traced[b] && pairs)
             busy[n_busy++] = b;
-        else if (rays[b]) /* nothing to march (the misses' results), or no pairs */
-            trace(sc, dps, &bp[b], lanes[b], flags, NULL, &bt[b], cnt);
+        else /* nothing to march (the misses' results), or no pairs */
+            trace(sc, dps, &ch->bp[b], ch->block_traced[b], flags, NULL, &ch->bt[b], cnt);
     }
     for (int i = 0; i < n_busy; i += 2) {
-        if (i + 1 == n_busy) {
-            trace(sc, dps, &bp[busy[i]], lanes[busy[i]], flags, NULL, &bt[busy[i]], cnt);
+        const int b0 = busy[i], b1 = busy[i + 1 < n_busy ? i + 1 : i];
+        if (b0 == b1) {
+            trace(sc, dps, &ch->bp[b0], ch->block_traced[b0], flags, NULL, &ch->bt[b0], cnt);
             break;
         }
-        const ub_packet_rays *const both[2] = {&bp[busy[i]], &bp[busy[i + 1]]};
-        const int both_lanes[2] = {lanes[busy[i]], lanes[busy[i + 1]]};
+        const ub_packet_rays *const both[2] = {&ch->bp[b0], &ch->bp[b1]};
+        const int both_lanes[2] = {ch->block_traced[b0], ch->block_traced[b1]};
         ub_trace_result both_tr[2];
         trace_pair(sc, dps, both, both_lanes, flags, both_tr, cnt);
-        bt[busy[i]] = both_tr[0];
-        bt[busy[i + 1]] = both_tr[1];
+        ch->bt[b0] = both_tr[0];
+        ch->bt[b1] = both_tr[1];
     }
-    for (int b = 0; b < UB_CHUNK_BLOCKS; b++)
-        if (rays[b])
-            chunk_hits(&bt[b], b, ch);
-    for (int r = 0; r < UB_BLOCK_H; r++)
-        for (int j = 0; j < 2; j++) {
-            const int n = ch->n[r][j];
-            if (!n || ch->background[r][j])
-                continue;
-            ub_trace_result *tr = &ch->tr[r][j];
-            uint64_t steps = 0;
-            for (int l = 0; l < n; l++)
-                steps += (uint64_t)tr->steps[l];
-            cnt->rays += (uint64_t)n;
-            cnt->steps += steps;
-            for (int l = n; l < UB_LANES; l++) {
-                tr->t[l] = tr->t[n - 1];
-                tr->iters[l] = tr->iters[n - 1];
-                tr->dist[l] = tr->dist[n - 1];
-                tr->steps[l] = tr->steps[n - 1];
-                tr->penumbra[l] = tr->penumbra[n - 1];
-                tr->object[l] = tr->object[n - 1];
-                tr->out_of_steps[l] = tr->out_of_steps[n - 1];
-            }
-        }
+    for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
+        uint64_t steps = 0;
+        for (int l = 0; l < UB_LANES; l++)
+            if ((ch->valid[b] >> l) & 1)
+                steps += (uint64_t)ch->bt[b].steps[l];
+        cnt->rays += (uint64_t)__builtin_popcount((unsigned)ch->valid[b]);
+        cnt->steps += steps;
+    }
 }
 
 /* The de_params of the scene's objects, for one tile. */
@@ -359,13 +347,15 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
             if (__atomic_load_n(sc->cancel, __ATOMIC_RELAXED))
                 return;
             chunk_primary(sc, dps, &sp, pairs, 0, x, y, tx1, ty1, &ch, cnt);
-            for (int r = 0; r < UB_BLOCK_H; r++)
-                for (int j = 0; j < 2; j++) {
-                    const ub_trace_result *tr = &ch.tr[r][j];
-                    ub_hit *h = &hb->hits[(size_t)(y + r) * hb->w + x + j * UB_LANES];
-                    for (int l = 0; l < ch.n[r][j]; l++)
-                        h[l] = (ub_hit){tr->t[l], tr->iters[l], tr->dist[l], tr->steps[l], (int16_t)tr->object[l],
-                                        (int16_t)tr->out_of_steps[l]};
+            for (int b = 0; b < UB_CHUNK_BLOCKS; b++)
+                for (int l = 0; l < UB_LANES; l++) {
+                    if (!((ch.valid[b] >> l) & 1))
+                        continue;
+                    const ub_trace_result *tr = &ch.bt[b];
+                    const int hx = x + chunk_packet(b) * UB_LANES + chunk_lane(b) + l % UB_BLOCK_W;
+                    hb->hits[(size_t)(y + l / UB_BLOCK_W) * hb->w + hx] =
+                        (ub_hit){tr->t[l], tr->iters[l], tr->dist[l], tr->steps[l], (int16_t)tr->object[l],
+                                 (int16_t)tr->out_of_steps[l]};
                 }
         }
     }
@@ -774,18 +764,18 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
  * default grey World), its shadow rays are marched with the first hard-shadowed light's in one
  * loop (issue 21: on an artist's first scene, where the shadow rays take most of the time, F12
  * 1.10x). The same sums in the same order as direct_light, then world_light. */
-static void lights_and_world(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int px0, int py,
-                             int step, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
+static void lights_and_world(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp,
+                             const ub_lane_pixels *pix, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
                              const ub_surface *sf, const ub_bounce_density *bounces, float direct[3][UB_LANES],
                              float shadow[UB_LANES], ub_counters *cnt)
 {
     if (!world_single_packet(sc, bounces)) {
         direct_light(sc, dps, bounce, lanes, pr, tr, sf, NULL, direct, shadow, cnt);
-        world_light(sc, dps, sp, px0, py, step, bounce, lanes, pr, tr, sf, bounces, direct, cnt);
+        world_light(sc, dps, sp, pix, bounce, lanes, pr, tr, sf, bounces, direct, cnt);
         return;
     }
     ub_world_rays wr;
-    world_sample_rays(sc, sp, px0, py, step, bounce, lanes, pr, tr, sf, bounces, 0, 1, &wr);
+    world_sample_rays(sc, sp, pix, bounce, lanes, pr, tr, sf, bounces, 0, 1, &wr);
     direct_light(sc, dps, bounce, lanes, pr, tr, sf, &wr, direct, shadow, cnt);
     if (!wr.cand)
         return;
@@ -909,6 +899,42 @@ static void start_paths(const ub_trace_result *tr, ub_paths *ps)
     memcpy(ps->primary_out_of_steps, tr->out_of_steps, sizeof ps->primary_out_of_steps);
 }
 
+/* Lanes [sl, sl + count) of src into lanes [dl, dl + count) of dst: a block's paths into its rows'
+ * packets (tile_shade). */
+static void paths_copy_lanes(ub_paths *dst, int dl, const ub_paths *src, int sl, int count)
+{
+    const size_t f = (size_t)count * sizeof(float), i4 = (size_t)count * sizeof(int);
+    const size_t d8 = (size_t)count * sizeof(double);
+#define UB_COPY(field, size) memcpy(&dst->field[dl], &src->field[sl], size)
+    for (int c = 0; c < 3; c++) {
+        UB_COPY(L[c], f);
+        UB_COPY(R[c], f);
+        UB_COPY(tint[c], f);
+        UB_COPY(pass_diffuse[c], f);
+        UB_COPY(pass_ambient[c], f);
+        UB_COPY(pos0[c], d8);
+        UB_COPY(nrm0[c], f);
+        UB_COPY(albedo0[c], f);
+    }
+    UB_COPY(W, f);
+    UB_COPY(Wr, f);
+    UB_COPY(diffuse_count, i4);
+    UB_COPY(glossy_count, i4);
+    UB_COPY(bounce_density, d8);
+    UB_COPY(pass_ao, f);
+    UB_COPY(pass_shadow, f);
+    UB_COPY(pass_trap, f);
+    UB_COPY(coverage, f);
+    UB_COPY(primary_steps, f);
+    UB_COPY(primary_iters, f);
+    UB_COPY(primary_dist, f);
+    UB_COPY(primary_obj, i4);
+    UB_COPY(primary_out_of_steps, i4);
+#undef UB_COPY
+    const int m = (1 << count) - 1;
+    dst->unseen = (dst->unseen & ~(m << dl)) | (((src->unseen >> sl) & m) << dl);
+}
+
 /* What a ray sees of the world along direction d: the background colour, or the world map (times
  * the background's alpha for camera rays: a transparent film hides the world from the camera, not
  * from reflections, as in Cycles). */
@@ -994,8 +1020,8 @@ typedef struct {
     ub_bounce_density bd[UB_LANES]; /* what could have been drawn, for world_light */
 } gi_plan;
 
-/* The next bounce of each hit lane: lane l is full-image pixel (px0 + step l, py). */
-static void gi_plan_bounces(const ub_shading *sh, const sample_point *sp, int px0, int py, int step, int bounce,
+/* The next bounce of each hit lane (of full-image pixel pix). */
+static void gi_plan_bounces(const ub_shading *sh, const sample_point *sp, const ub_lane_pixels *pix, int bounce,
                             int hit_lanes, const ub_packet_rays *pr, const ub_surface *sf, const ub_paths *ps,
                             gi_plan *plan)
 {
@@ -1007,7 +1033,7 @@ static void gi_plan_bounces(const ub_shading *sh, const sample_point *sp, int px
         plan->bd[l] = (ub_bounce_density){0.0, 0.0, 0, 0};
         if (!((hit_lanes >> l) & 1))
             continue;
-        int px = px0 + step * l, dim = GI_DIM + 8 * bounce;
+        int px = pix->px[l], py = pix->py[l], dim = GI_DIM + 8 * bounce;
         int more = bounce < sh->max_bounces;
         int glossy_ok = more && ps->glossy_count[l] < sh->glossy_bounces;
         int diffuse_ok = more && ps->diffuse_count[l] < sh->diffuse_bounces;
@@ -1337,19 +1363,19 @@ typedef struct {
     int sample, want_trap, use_ao;
 } ub_tile_shading;
 
-/* One packet's paths, bounce by bounce, from its camera rays pr and their hits tr (both reused
- * for the later bounces), then its passes. Returns 0 when the render was cancelled. */
-static int shade_packet(const ub_tile_shading *ts, int x, int y, int n, int seen, ub_packet_rays *pr,
-                        ub_trace_result *tr, ub_counters *cnt)
+/* One packet's paths, bounce by bounce, into ps: lanes `lanes` (pixels pix) from their camera rays
+ * pr and hits tr (both reused for the later bounces), of which `seen` see the scene. (fx, fy):
+ * the hit-buffer pixel of lane 0 of a row's packet, which only the Z-buffer normals read (in the
+ * two-phase render, whose packets are rows). Returns 0 when the render was cancelled. */
+static int shade_paths(const ub_tile_shading *ts, const ub_lane_pixels *pix, int fx, int fy, int lanes, int seen,
+                       ub_packet_rays *pr, ub_trace_result *tr, ub_paths *ps, ub_counters *cnt)
 {
     const ub_scene *sc = ts->sc;
     const ub_de_params *dps = ts->dps;
-    const ub_film *film = sc->film;
     const ub_shading *sh = sc->shading;
-    ub_paths ps;
-    start_paths(tr, &ps);
-    int alive = ((1 << n) - 1) & seen;
-    ps.unseen = ~seen;
+    start_paths(tr, ps);
+    int alive = lanes & seen;
+    ps->unseen = ~seen;
     for (int bounce = 0; alive; bounce++) {
         if (bounce > 0) {
             trace(sc, dps, pr, alive, sh->sea ? UB_TRACE_SEA : 0, NULL, tr, cnt);
@@ -1359,20 +1385,19 @@ static int shade_packet(const ub_tile_shading *ts, int x, int y, int n, int seen
             if (cancelled(sc))
                 return 0;
         }
-        int hit_lanes = add_background(sc, bounce, alive, pr, tr, &ps);
+        int hit_lanes = add_background(sc, bounce, alive, pr, tr, ps);
         if (!hit_lanes)
             break;
         ub_surface sf;
-        surface(sc, dps, &ts->sp, bounce, x, y, pr, tr, hit_lanes, ts->want_trap && bounce == 0, &sf, cnt);
+        surface(sc, dps, &ts->sp, bounce, fx, fy, pr, tr, hit_lanes, ts->want_trap && bounce == 0, &sf, cnt);
         if (cancelled(sc))
             return 0;
         float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
-        const int px0 = film->x0 + film->step * x, py = film->y0 + film->step * y;
         gi_plan plan;
         if (sh->gi)
-            gi_plan_bounces(sh, &ts->sp, px0, py, film->step, bounce, hit_lanes, pr, &sf, &ps, &plan);
-        lights_and_world(sc, dps, &ts->sp, px0, py, film->step, bounce, hit_lanes, pr, tr, &sf,
-                         sh->gi ? plan.bd : NULL, direct, shadow, cnt);
+            gi_plan_bounces(sh, &ts->sp, pix, bounce, hit_lanes, pr, &sf, ps, &plan);
+        lights_and_world(sc, dps, &ts->sp, pix, bounce, hit_lanes, pr, tr, &sf, sh->gi ? plan.bd : NULL, direct,
+                         shadow, cnt);
         if (ts->use_ao)
             ambient_occlusion(sc, dps, hit_lanes, sf.p, sf.n, ao);
         else
@@ -1380,18 +1405,57 @@ static int shade_packet(const ub_tile_shading *ts, int x, int y, int n, int seen
                 ao[l] = 1.0f;
         if (cancelled(sc))
             return 0;
-        alive = add_surface_light(sc, bounce, hit_lanes, &sf, direct, shadow, ao, tr, sh->gi ? &plan : NULL, pr,
-                                  &ps);
+        alive = add_surface_light(sc, bounce, hit_lanes, &sf, direct, shadow, ao, tr, sh->gi ? &plan : NULL, pr, ps);
     }
-    write_passes(sc, ts->sample, x, y, n, &ps, cnt);
     return 1;
 }
 
-/* Phase 1 over one tile: each packet's paths bounce by bounce, then its passes (shade_packet).
+/* The full-image pixels of block b of the chunk at film pixel (x, y). */
+static void block_pixels(const ub_film *film, int x, int y, int b, ub_lane_pixels *pix)
+{
+    const int x0 = x + chunk_packet(b) * UB_LANES + chunk_lane(b);
+    for (int l = 0; l < UB_LANES; l++) {
+        pix->px[l] = film->x0 + film->step * (x0 + l % UB_BLOCK_W);
+        pix->py[l] = film->y0 + film->step * (y + l / UB_BLOCK_W);
+    }
+}
+
+/* Shades the chunk's blocks at film pixel (x, y) into the paths of its rows' packets. Returns 0
+ * when the render was cancelled. */
+static int shade_chunk(const ub_tile_shading *ts, int x, int y, ub_chunk *ch, ub_paths rows[UB_BLOCK_H][2],
+                       ub_counters *cnt)
+{
+    for (int r = 0; r < UB_BLOCK_H; r++)
+        for (int j = 0; j < 2; j++)
+            rows[r][j].unseen = 0;
+    for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
+        if (!ch->valid[b])
+            continue;
+        ub_lane_pixels pix;
+        block_pixels(ts->sc->film, x, y, b, &pix);
+        ub_paths ps;
+        if (!shade_paths(ts, &pix, x, y, ch->valid[b], ch->block_seen[b], &ch->bp[b], &ch->bt[b], &ps, cnt))
+            return 0;
+        const int j = chunk_packet(b), c0 = chunk_lane(b);
+        for (int r = 0; r < UB_BLOCK_H; r++)
+            if (chunk_has_rays(ch, r, j))
+                paths_copy_lanes(&rows[r][j], c0, &ps, r * UB_BLOCK_W, UB_BLOCK_W);
+    }
+    /* Padding lanes repeat the last pixel's paths, as a row's packet has them. */
+    for (int r = 0; r < UB_BLOCK_H; r++)
+        for (int j = 0; j < 2; j++)
+            if (chunk_has_rays(ch, r, j))
+                for (int l = ch->n[r][j]; l < UB_LANES; l++)
+                    paths_copy_lanes(&rows[r][j], l, &rows[r][j], ch->n[r][j] - 1, 1);
+    return 1;
+}
+
+/* Phase 1 over one tile: each packet's paths bounce by bounce (shade_paths), then its passes.
  * The camera rays' hits come from the hit buffer, or with `trace_first`
  * (UB_PHASE_TRACE_AND_SHADE) from marching them right here, a chunk of blocks at a time
- * (chunk_primary): the same hits (the buffer keeps trace's values exactly), without the round
- * trip of 20 bytes a pixel through memory and with one camera ray per pixel instead of two. */
+ * (chunk_primary, shade_chunk): the same hits (the buffer keeps trace's values exactly), without
+ * the round trip of 20 bytes a pixel through memory and with one camera ray per pixel instead of
+ * two. */
 static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0, int ty0, int tx1, int ty1,
                        ub_counters *cnt)
 {
@@ -1411,13 +1475,17 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
                 if (cancelled(sc))
                     return;
                 const int n = tx1 - x < UB_LANES ? tx1 - x : UB_LANES;
+                const int px0 = film->x0 + film->step * x, py = film->y0 + film->step * y;
                 ub_packet_rays pr;
                 ub_trace_result tr;
-                int seen = camera_packet(cam, film->x0 + film->step * x, film->y0 + film->step * y, film->step, n,
-                                         &ts.sp, 0, &pr);
+                int seen = camera_packet(cam, px0, py, film->step, n, &ts.sp, 0, &pr);
                 buffered_hits(sc->hits, x, y, n, &tr);
-                if (!shade_packet(&ts, x, y, n, seen, &pr, &tr, cnt))
+                ub_lane_pixels pix;
+                row_pixels(px0, py, film->step, &pix);
+                ub_paths ps;
+                if (!shade_paths(&ts, &pix, x, y, (1 << n) - 1, seen, &pr, &tr, &ps, cnt))
                     return;
+                write_passes(sc, sample, x, y, n, &ps, cnt);
             }
         return;
     }
@@ -1430,24 +1498,23 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
     if (background_only)
         background_paths(sc, &background);
     ub_chunk ch;
+    ub_paths rows[UB_BLOCK_H][2];
     for (int y = ty0; y < ty1; y += UB_BLOCK_H)
         for (int x = tx0; x < tx1; x += 2 * UB_LANES) {
             if (cancelled(sc))
                 return;
             chunk_primary(sc, dps, &ts.sp, pairs, background_only, x, y, tx1, ty1, &ch, cnt);
-            if (cancelled(sc))
+            if (cancelled(sc) || !shade_chunk(&ts, x, y, &ch, rows, cnt))
                 return;
             for (int r = 0; r < UB_BLOCK_H; r++)
                 for (int j = 0; j < 2; j++) {
-                    const int n = ch.n[r][j], xj = x + j * UB_LANES;
+                    const int n = ch.n[r][j];
                     if (!n)
                         continue;
-                    if (ch.background[r][j]) {
+                    if (ch.background[r][j]) /* (the traced packets' rays count in chunk_primary) */
                         cnt->rays += (uint64_t)n;
-                        write_passes(sc, sample, xj, y + r, n, &background, cnt);
-                    } else if (!shade_packet(&ts, xj, y + r, n, ch.seen[r][j], &ch.pr[r][j], &ch.tr[r][j], cnt)) {
-                        return;
-                    }
+                    write_passes(sc, sample, x + j * UB_LANES, y + r, n,
+                                 ch.background[r][j] ? &background : &rows[r][j], cnt);
                 }
         }
 }

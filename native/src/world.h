@@ -435,7 +435,7 @@ static int world_single_packet(const ub_scene *sc, const ub_bounce_density *boun
 }
 
 /* Sample s, technique `technique` of each lane of `lanes` into wr (none traced yet). */
-static void world_sample_rays(const ub_scene *sc, const sample_point *sp, int px0, int py, int step, int bounce,
+static void world_sample_rays(const ub_scene *sc, const sample_point *sp, const ub_lane_pixels *pix, int bounce,
                               int lanes, const ub_packet_rays *pr, const ub_trace_result *tr, const ub_surface *sf,
                               const ub_bounce_density *bounces, int s, int technique, ub_world_rays *wr)
 {
@@ -463,8 +463,8 @@ static void world_sample_rays(const ub_scene *sc, const sample_point *sp, int px
         if ((bd && technique == 1) || (constant && !bd && technique == 0))
             continue;
         int dim = ((bounce * N + s) * 2 + technique) * 2;
-        r1[l] = random_uniform(px0 + step * l, py, sp->index, dim);
-        r2[l] = random_uniform(px0 + step * l, py, sp->index, dim + 1);
+        r1[l] = random_uniform(pix->px[l], pix->py[l], sp->index, dim);
+        r2[l] = random_uniform(pix->px[l], pix->py[l], sp->index, dim + 1);
         drawing |= 1 << l;
     }
     if (technique == 1 && drawing) {
@@ -484,7 +484,7 @@ static void world_sample_rays(const ub_scene *sc, const sample_point *sp, int px
         const int surface_only = constant && !bd;
         const ub_bsdf *b = (sf->bsdf_lanes >> l) & 1 ? &sf->bsdf[l] : NULL;
         /* A material's lobe: a dimension of its own, so Lambert's pairs keep their bits. */
-        double r_lobe = technique == 1 && b ? random_uniform(px0 + step * l, py, sp->index,
+        double r_lobe = technique == 1 && b ? random_uniform(pix->px[l], pix->py[l], sp->index,
                                                              WORLD_LOBE_DIM + bounce * N + s)
                                             : 0.0;
         float n[3] = {sf->n[0][l], sf->n[1][l], sf->n[2][l]};
@@ -531,11 +531,11 @@ static void world_sample_add(const ub_scene *sc, const ub_world_rays *wr, const 
 
 /* The world's light at the hits `lanes` of one bounce, added to `direct` as direct_light adds the
  * lights' (irradiance / pi, or through a material's BSDF): world_samples pairs per hit, shadows marched as for the lights (any hit; the
- * sea blocks what comes from below it). Lane l is full-image pixel (px0 + step l, py). With
+ * sea blocks what comes from below it). Lane l is full-image pixel pix[l]. With
  * global illumination, lanes whose path may bounce on (bounce[l].scale > 0) draw from the map
  * alone, weighed against that bounce (world_bounce_share). */
-static void world_light(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int px0, int py,
-                        int step, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
+static void world_light(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp,
+                        const ub_lane_pixels *pix, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
                         const ub_surface *sf, const ub_bounce_density *bounces, float direct[3][UB_LANES],
                         ub_counters *cnt)
 {
@@ -547,7 +547,7 @@ static void world_light(const ub_scene *sc, const ub_de_params *dps, const sampl
     for (int s = 0; s < N && !cancelled(sc); s++) {
         for (int technique = 0; technique < 2; technique++) {
             ub_world_rays wr;
-            world_sample_rays(sc, sp, px0, py, step, bounce, lanes, pr, tr, sf, bounces, s, technique, &wr);
+            world_sample_rays(sc, sp, pix, bounce, lanes, pr, tr, sf, bounces, s, technique, &wr);
             if (!wr.cand)
                 continue;
             if (sh->shadows != UB_SHADOWS_NONE) {
