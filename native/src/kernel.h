@@ -899,8 +899,8 @@ static void start_paths(const ub_trace_result *tr, ub_paths *ps)
     memcpy(ps->primary_out_of_steps, tr->out_of_steps, sizeof ps->primary_out_of_steps);
 }
 
-/* Lanes [sl, sl + count) of src into lanes [dl, dl + count) of dst: a block's paths into its rows'
- * packets (tile_shade). */
+/* What write_passes reads of lanes [sl, sl + count) of src, into lanes [dl, dl + count) of dst: a
+ * block's finished paths into its rows' packets (shade_chunk). */
 static void paths_copy_lanes(ub_paths *dst, int dl, const ub_paths *src, int sl, int count)
 {
     const size_t f = (size_t)count * sizeof(float), i4 = (size_t)count * sizeof(int);
@@ -909,18 +909,12 @@ static void paths_copy_lanes(ub_paths *dst, int dl, const ub_paths *src, int sl,
     for (int c = 0; c < 3; c++) {
         UB_COPY(L[c], f);
         UB_COPY(R[c], f);
-        UB_COPY(tint[c], f);
         UB_COPY(pass_diffuse[c], f);
         UB_COPY(pass_ambient[c], f);
         UB_COPY(pos0[c], d8);
         UB_COPY(nrm0[c], f);
         UB_COPY(albedo0[c], f);
     }
-    UB_COPY(W, f);
-    UB_COPY(Wr, f);
-    UB_COPY(diffuse_count, i4);
-    UB_COPY(glossy_count, i4);
-    UB_COPY(bounce_density, d8);
     UB_COPY(pass_ao, f);
     UB_COPY(pass_shadow, f);
     UB_COPY(pass_trap, f);
