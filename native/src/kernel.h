@@ -156,16 +156,20 @@ static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, 
     return seen;
 }
 
-/* Packets of camera rays are blocks of UB_BLOCK_W x UB_BLOCK_H pixels, marched and shaded as
- * blocks: only the passes are written in the rows' packets of UB_LANES x 1 pixels (issue 21). A
- * packet runs until its last lane is done, so its lanes are only as busy as its rays are alike:
- * on the peer frame a pair of the rows' packets kept 52 % of its lanes marching a step, a pair of
- * square blocks 72 % (each pixel's camera ray's steps, counted over the frame); the shadow,
- * World and reflection rays of a block's hits are alike in the same way. A block's camera rays
- * are copied from the rows' packets and its paths back, a row segment at a time: each lane's
- * ray, march, random numbers (its own pixel's) and shading are its own, so every pass keeps its
- * bits. */
+/* Packets of camera rays are blocks of UB_BLOCK_W x UB_BLOCK_H pixels (4 x 4 with 16 lanes, 4 x 2
+ * with 8), marched and shaded as blocks: only the passes are written in the rows' packets of
+ * UB_LANES x 1 pixels (issue 21). A packet runs until its last lane is done, so its lanes are only
+ * as busy as its rays are alike: on the peer frame a pair of the rows' packets of 16 kept 52 % of
+ * its lanes marching a step, a pair of 4 x 4 blocks 72 % (8 lanes: 66 % and 77 %; each pixel's
+ * camera ray's steps, counted over the frame), and the shadow, World and reflection rays of a
+ * block's hits are alike in the same way. A block's camera rays are copied from the rows' packets
+ * and its paths back, a row segment at a time: each lane's ray, march, random numbers (its own
+ * pixel's) and shading are its own, so every pass keeps its bits. */
+#if UB_LANES >= 16
 #define UB_BLOCK_H 4
+#else
+#define UB_BLOCK_H 2
+#endif
 #define UB_BLOCK_W (UB_LANES / UB_BLOCK_H)
 /* A chunk: UB_BLOCK_H rows of two row packets (2 UB_LANES pixels each), 2 UB_BLOCK_H blocks side
  * by side. */
