@@ -1,8 +1,9 @@
 /* The render kernel, written once against the vf/vm vector interface and compiled twice
- * (kernel_avx2.c, kernel_portable.c). A packet is UB_LANES horizontally adjacent pixels (camera
- * rays march in square-ish blocks of as many: chunk_primary); each lane follows its own ray and the
- * packet runs until all lanes are done. Lanes never interact, so a pixel's value does not depend
- * on the packet, tile or thread that computed it.
+ * (kernel_avx2.c, kernel_portable.c). A packet is UB_LANES pixels: a block of 4 x 4 or 4 x 2 in
+ * the one-phase render (chunk_primary, shade_chunk), a run of a row in the hit buffer's phases and
+ * where the passes are written; each lane follows its own ray and the packet runs until all
+ * lanes are done. Lanes never interact, so a pixel's value does not depend on the packet, tile or
+ * thread that computed it.
  *
  * A render runs, for each anti-aliasing sample, two phases over the film: phase 0 marches the
  * camera rays into a hit buffer (the r^2 memory of the paper, plus a one-pixel apron), phase 1
