@@ -770,9 +770,9 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
  * loop (issue 21: on an artist's first scene, where the shadow rays take most of the time, F12
  * 1.10x). The same sums in the same order as direct_light, then world_light. */
 static void lights_and_world(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp,
-                             const ub_lane_pixels *pix, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
-                             const ub_surface *sf, const ub_bounce_density *bounces, float direct[3][UB_LANES],
-                             float shadow[UB_LANES], ub_counters *cnt)
+                             const ub_lane_pixels *pix, int bounce, int lanes, const ub_packet_rays *pr,
+                             const ub_trace_result *tr, const ub_surface *sf, const ub_bounce_density *bounces,
+                             float direct[3][UB_LANES], float shadow[UB_LANES], ub_counters *cnt)
 {
     if (!world_single_packet(sc, bounces)) {
         direct_light(sc, dps, bounce, lanes, pr, tr, sf, NULL, direct, shadow, cnt);

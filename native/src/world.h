@@ -535,9 +535,9 @@ static void world_sample_add(const ub_scene *sc, const ub_world_rays *wr, const 
  * global illumination, lanes whose path may bounce on (bounce[l].scale > 0) draw from the map
  * alone, weighed against that bounce (world_bounce_share). */
 static void world_light(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp,
-                        const ub_lane_pixels *pix, int bounce, int lanes, const ub_packet_rays *pr, const ub_trace_result *tr,
-                        const ub_surface *sf, const ub_bounce_density *bounces, float direct[3][UB_LANES],
-                        ub_counters *cnt)
+                        const ub_lane_pixels *pix, int bounce, int lanes, const ub_packet_rays *pr,
+                        const ub_trace_result *tr, const ub_surface *sf, const ub_bounce_density *bounces,
+                        float direct[3][UB_LANES], ub_counters *cnt)
 {
     const ub_shading *sh = sc->shading;
     const ub_world *wd = sc->world;
