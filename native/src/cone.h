@@ -319,7 +319,7 @@ static void cone_fill(const ub_scene *sc, const ub_de_params *dps, int tx0, int 
  * branches (vector code), then one load a lane: no pixel coordinate is negative. */
 static void packet_starts(const ub_cone_cache *cc, int px, int py, int step, int n, double start[UB_LANES])
 {
-    const double *row = cc->start + (ptrdiff_t)(py / UB_CONE_BLOCK - cc->by0) * cc->nbx - cc->bx0;
+    const double *row = cc->start + cone_index(cc, 0, py); /* + column: cone_index(cc, px, py) */
     unsigned column[UB_LANES];
     for (int l = 0; l < UB_LANES; l++)
         column[l] = (unsigned)(px + step * (l < n ? l : n - 1)) / UB_CONE_BLOCK;

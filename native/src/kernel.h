@@ -203,6 +203,17 @@ static inline int chunk_lane(int b)
     return b * UB_BLOCK_W % UB_LANES;
 }
 
+/* The column and row (of the chunk's grid, from its pixel (x, y)) of lane l of block b. */
+static inline int block_column(int x, int b, int l)
+{
+    return x + chunk_packet(b) * UB_LANES + chunk_lane(b) + l % UB_BLOCK_W;
+}
+
+static inline int block_row(int y, int l)
+{
+    return y + l / UB_BLOCK_W;
+}
+
 /* Whether the chunk holds rays in row packet (r, j). */
 static inline int chunk_has_rays(const ub_chunk *ch, int r, int j)
 {
@@ -305,11 +316,12 @@ static void chunk_primary(const ub_scene *sc, const ub_de_params *dps, const sam
             trace(sc, dps, &ch->bp[b], ch->block_traced[b], flags, NULL, &ch->bt[b], cnt);
     }
     for (int i = 0; i < n_busy; i += 2) {
-        const int b0 = busy[i], b1 = busy[i + 1 < n_busy ? i + 1 : i];
-        if (b0 == b1) {
+        const int b0 = busy[i];
+        if (i + 1 == n_busy) { /* the odd one out */
             trace(sc, dps, &ch->bp[b0], ch->block_traced[b0], flags, NULL, &ch->bt[b0], cnt);
             break;
         }
+        const int b1 = busy[i + 1];
         const ub_packet_rays *const both[2] = {&ch->bp[b0], &ch->bp[b1]};
         const int both_lanes[2] = {ch->block_traced[b0], ch->block_traced[b1]};
         ub_trace_result both_tr[2];
@@ -357,8 +369,7 @@ static void tile_primary(const ub_scene *sc, int sample, int tx0, int ty0, int t
                     if (!((ch.valid[b] >> l) & 1))
                         continue;
                     const ub_trace_result *tr = &ch.bt[b];
-                    const int hx = x + chunk_packet(b) * UB_LANES + chunk_lane(b) + l % UB_BLOCK_W;
-                    hb->hits[(size_t)(y + l / UB_BLOCK_W) * hb->w + hx] =
+                    hb->hits[(size_t)block_row(y, l) * hb->w + block_column(x, b, l)] =
                         (ub_hit){tr->t[l], tr->iters[l], tr->dist[l], tr->steps[l], (int16_t)tr->object[l],
                                  (int16_t)tr->out_of_steps[l]};
                 }
@@ -1412,10 +1423,9 @@ static int shade_paths(const ub_tile_shading *ts, const ub_lane_pixels *pix, int
 /* The full-image pixels of block b of the chunk at film pixel (x, y). */
 static void block_pixels(const ub_film *film, int x, int y, int b, ub_lane_pixels *pix)
 {
-    const int x0 = x + chunk_packet(b) * UB_LANES + chunk_lane(b);
     for (int l = 0; l < UB_LANES; l++) {
-        pix->px[l] = film->x0 + film->step * (x0 + l % UB_BLOCK_W);
-        pix->py[l] = film->y0 + film->step * (y + l / UB_BLOCK_W);
+        pix->px[l] = film->x0 + film->step * block_column(x, b, l);
+        pix->py[l] = film->y0 + film->step * block_row(y, l);
     }
 }
 
