@@ -1228,24 +1228,35 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
     int hit[UB_LANES];
     for (int l = 0; l < UB_LANES; l++)
         hit[l] = ps->primary_obj[l] != UB_HIT_NONE;
-    /* Lanes outside a panoramic camera's lens were not traced: never out of steps. */
-    float out_of_steps[1][UB_LANES];
+    /* Lanes outside a panoramic camera's lens were not traced: never out of steps. Counted from a
+     * bit word, not by reading back the pass's lanes just stored one at a time: a vector load of
+     * those stores waits for them to reach the cache (issue 21: that wait was a quarter of this
+     * function's time on the peer scene). */
+    int gave_up = 0;
     for (int l = 0; l < UB_LANES; l++)
-        out_of_steps[0][l] = ps->primary_out_of_steps[l] && !((ps->unseen >> l) & 1) ? 1.0f : 0.0f;
-    for (int l = 0; l < n; l++)
-        cnt->out_of_steps += out_of_steps[0][l] > 0.0f;
-    put_lanes(pass[UB_PASS_MAX_STEPS], idx, 1, n, out_of_steps, sample, S, PASS_AVERAGED);
+        gave_up |= (ps->primary_out_of_steps[l] != 0) << l;
+    gave_up &= ~ps->unseen;
+    cnt->out_of_steps += (uint64_t)__builtin_popcount((unsigned)gave_up & ((1u << n) - 1u));
+    if (pass[UB_PASS_MAX_STEPS]) {
+        float out_of_steps[1][UB_LANES];
+        for (int l = 0; l < UB_LANES; l++)
+            out_of_steps[0][l] = (gave_up >> l) & 1 ? 1.0f : 0.0f;
+        put_lanes(pass[UB_PASS_MAX_STEPS], idx, 1, n, out_of_steps, sample, S, PASS_AVERAGED);
+    }
 
     float glow[3][UB_LANES];
     if (pass[UB_PASS_COMBINED] || pass[UB_PASS_GLOW]) {
         const float glow_scale = 1.0f / 64.0f;
-        for (int l = 0; l < UB_LANES; l++) {
-            float g = sh->glow_strength > 0.0f
-                        ? sh->glow_strength * (1.0f - ub_expf(-ps->primary_steps[l] * glow_scale))
-                        : 0.0f;
+        if (sh->glow_strength > 0.0f)
+            for (int l = 0; l < UB_LANES; l++) {
+                float g = sh->glow_strength * (1.0f - ub_expf(-ps->primary_steps[l] * glow_scale));
+                for (int i = 0; i < 3; i++)
+                    glow[i][l] = g * sh->glow_color[i];
+            }
+        else /* 0 * colour, as the loop above would give for g = 0 (the colour is finite) */
             for (int i = 0; i < 3; i++)
-                glow[i][l] = g * sh->glow_color[i];
-        }
+                for (int l = 0; l < UB_LANES; l++)
+                    glow[i][l] = 0.0f * sh->glow_color[i];
         put_lanes(pass[UB_PASS_GLOW], idx, 3, n, glow, sample, S, PASS_AVERAGED);
     }
     if (pass[UB_PASS_COMBINED] || pass[UB_PASS_ALPHA]) {
@@ -1286,12 +1297,18 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
             }
         for (int l = 0; l < UB_LANES; l++)
             depth[0][l] = hit[l] ? (float)d[l] : UB_BACKGROUND_DEPTH;
-        for (int l = 0; l < n; l++)
-            if (hit[l] && depth[0][l] < 0.5f * UB_BACKGROUND_DEPTH
-                && (!cnt->has_depth || depth[0][l] < cnt->nearest_depth)) {
-                cnt->nearest_depth = depth[0][l];
-                cnt->has_depth = 1;
-            }
+        /* The nearest hit's depth, as a minimum without branches (a NaN depth is no hit's). */
+        float nearest = INFINITY;
+        int any = 0;
+        for (int l = 0; l < n; l++) {
+            const int real = hit[l] && depth[0][l] < 0.5f * UB_BACKGROUND_DEPTH;
+            nearest = real && depth[0][l] < nearest ? depth[0][l] : nearest;
+            any |= real;
+        }
+        if (any && (!cnt->has_depth || nearest < cnt->nearest_depth)) {
+            cnt->nearest_depth = nearest;
+            cnt->has_depth = 1;
+        }
         put_lanes(pass[UB_PASS_DEPTH], idx, 1, n, depth, sample, S, PASS_DATA);
     }
     /* The first hit's data, zero where the camera ray missed. */
