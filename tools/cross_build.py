@@ -37,8 +37,10 @@ import zipfile
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 # Every C file of the core (as native/setup.py compiles them).
 SOURCES = sorted(p.name for p in (ROOT / "native" / "src").glob("*.c"))
-# The flags of native/setup.py: IEEE semantics kept (no contraction of a*b+c behind our back).
-CFLAGS = ["-O3", "-std=c11", "-D_GNU_SOURCE", "-ffp-contract=off", "-fno-math-errno", "-fvisibility=hidden",
+# The flags of native/setup.py: IEEE semantics kept (no contraction of a*b+c behind our back; no
+# exception flags read, so selects may evaluate both arms).
+CFLAGS = ["-O3", "-std=c11", "-D_GNU_SOURCE", "-ffp-contract=off", "-fno-math-errno", "-fno-trapping-math",
+          "-fvisibility=hidden",
           "-Wall", "-Wno-unused-function", "-Werror=implicit-function-declaration", "-DPy_LIMITED_API=0x030B0000"]
 # Reproducible objects and archives: no paths of this machine in the binaries.
 CFLAGS += ["-ffile-prefix-map=%s=." % ROOT, "-fno-ident"]

@@ -48,7 +48,7 @@ build() {
 	# The release build's semantics (setup.py: IEEE, no contraction), plus the sanitizers.
 	# -fno-sanitize-recover: a UBSan report aborts, so the fuzzer and the tests see it as a crash.
 	# float-divide-by-zero stays off: IEEE division by zero (inf, NaN) is defined and relied on.
-	flags="-g -O1 -std=c11 -D_GNU_SOURCE -ffp-contract=off -fno-math-errno -fvisibility=hidden
+	flags="-g -O1 -std=c11 -D_GNU_SOURCE -ffp-contract=off -fno-math-errno -fno-trapping-math -fvisibility=hidden
 		-fno-omit-frame-pointer -fPIC -DPy_LIMITED_API=0x030B0000 -Inative/src -I$inc
 		-fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=undefined"
 	rm -rf "$OUT"

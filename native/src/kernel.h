@@ -491,6 +491,8 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         for (int i = 0; i < 3; i++) {
             sf->p[i][l] = ((hit_lanes >> l) & 1) ? pr->origin[i][l] + t * pr->dir[i][l] : 0.0;
             nw[i][l] = 0.0;
+            /* Every lane has a value: add_surface_light computes all of them (and keeps the hits'). */
+            sf->albedo[i][l] = sf->emission[i][l] = 0.0f;
         }
         sf->trap[l] = 0.0f;
         sf->reflectivity[l] = 0.0f;
@@ -1122,70 +1124,125 @@ static int gi_continue(const gi_plan *plan, int l, ub_paths *ps)
     return 1;
 }
 
+/* What add_surface_light needs lane by lane through calls: the fog's transmittance 1 - f along
+ * each hit lane's ray, and the world behind a material's alpha (zero elsewhere). */
+static void surface_light_calls(const ub_scene *sc, int bounce, int hit_lanes, const ub_surface *sf,
+                                const ub_trace_result *tr, const ub_packet_rays *pr, float fog[UB_LANES],
+                                float behind[3][UB_LANES])
+{
+    const ub_shading *sh = sc->shading;
+    for (int l = 0; l < UB_LANES; l++) {
+        fog[l] = 0.0f;
+        for (int i = 0; i < 3; i++)
+            behind[i][l] = 0.0f;
+    }
+    if (sh->fog_density > 0.0)
+        for (int l = 0; l < UB_LANES; l++)
+            if ((hit_lanes >> l) & 1)
+                fog[l] = (float)(1.0 - ub_exp(-sh->fog_density * tr->t[l]));
+    const int see_through = hit_lanes & sf->bsdf_lanes;
+    for (int l = 0; l < UB_LANES; l++) {
+        /* A material's alpha: the surface covers that fraction; the world behind it (the
+         * background colour or the World's map along the ray) shows through the rest. */
+        if (!((see_through >> l) & 1) || !(sf->alpha[l] < 1.0f))
+            continue;
+        const double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+        float seen[3];
+        background_along(sc, bounce, d, seen);
+        for (int i = 0; i < 3; i++)
+            behind[i][l] = seen[i];
+    }
+}
+
 /* The local light of each hit lane (diffuse and ambient, fogged) into the paths, the first
- * bounce's passes, and the mirrored rays of the lanes that go on; returns those lanes. */
+ * bounce's passes, and the mirrored rays of the lanes that go on; returns those lanes. The light
+ * is added to every lane at once and kept only in the hit lanes (a loop of selects the compiler
+ * vectorises; issue 21: lane by lane with branches it was the largest part of shading the peer
+ * scene); the calls (surface_light_calls) and the next rays stay lane by lane. */
 static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, const ub_surface *sf,
                              const float direct[3][UB_LANES], const float shadow[UB_LANES],
                              const float ao[UB_LANES], const ub_trace_result *tr, const gi_plan *plan,
                              ub_packet_rays *pr, ub_paths *ps)
 {
     const ub_shading *sh = sc->shading;
-    int last = bounce >= sh->reflection_depth;
-    int next = 0;
+    const int last = bounce >= sh->reflection_depth;
     /* With global illumination the bounces bring the light of the surroundings: no ambient term. */
     const float ambient_on = plan ? 0.0f : 1.0f;
+    float fog[UB_LANES], behind[3][UB_LANES];
+    surface_light_calls(sc, bounce, hit_lanes, sf, tr, pr, fog, behind);
+    /* Each lane's reflected share r (without a further bounce the surface shows its own colour in
+     * full), and whether it hit and has a material, as floats: one vector width in the loops. */
+    float r[UB_LANES], on[UB_LANES], material[UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
-        if (!((hit_lanes >> l) & 1))
-            continue;
-        /* Without a further bounce the surface shows its own colour in full. */
-        float r = plan ? plan->mirror[l] : (last ? 0.0f : sf->reflectivity[l]);
-        float f = sh->fog_density > 0.0 ? (float)(1.0 - ub_exp(-sh->fog_density * tr->t[l])) : 0.0f;
-        float local[3], dif[3], amb[3];
-        int material = (sf->bsdf_lanes >> l) & 1;
-        /* A material's alpha: the surface covers that fraction; the world behind it (the background
-         * colour or the World's map along the ray) shows through the rest. */
-        float a = sf->alpha[l], behind[3] = {0, 0, 0};
-        if (material && a < 1.0f) {
-            const double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-            background_along(sc, bounce, d, behind);
+        r[l] = plan ? plan->mirror[l] : (last ? 0.0f : sf->reflectivity[l]);
+        on[l] = (float)((hit_lanes >> l) & 1);
+        material[l] = (float)((sf->bsdf_lanes >> l) & 1);
+    }
+    float dif[3][UB_LANES], amb[3][UB_LANES], light[3][UB_LANES];
+    for (int i = 0; i < 3; i++) {
+        const float ambient = sh->ambient[i], fog_color = sh->fog_color[i];
+        for (int l = 0; l < UB_LANES; l++) {
+            const float f = fog[l], a = sf->alpha[l], keep = 1.0f - r[l];
+            /* Both ways for every lane, then one taken (a select, not a branch). With a material
+             * the direct light went through its BSDF, colour included. */
+            const float dif_material = keep * a * direct[i][l], dif_plain = keep * sf->albedo[i][l] * direct[i][l];
+            const float amb_plain = keep * sf->albedo[i][l] * ambient * ao[l] * ambient_on, amb_material = amb_plain * a;
+            const float local_plain = dif_plain + amb_plain;
+            const float local_material = dif_material + amb_material + a * sf->emission[i][l] + (1.0f - a) * behind[i][l];
+            const int mat = material[l] != 0.0f;
+            dif[i][l] = mat ? dif_material : dif_plain;
+            amb[i][l] = mat ? amb_material : amb_plain;
+            const float local = mat ? local_material : local_plain;
+            light[i][l] = f * fog_color + (1.0f - f) * local;
         }
-        for (int i = 0; i < 3; i++) {
-            /* With a material the direct light went through its BSDF, colour included. */
-            dif[i] = material ? (1.0f - r) * a * direct[i][l] : (1.0f - r) * sf->albedo[i][l] * direct[i][l];
-            amb[i] = (1.0f - r) * sf->albedo[i][l] * sh->ambient[i] * ao[l] * ambient_on;
-            local[i] = dif[i] + amb[i];
-            if (material) {
-                amb[i] *= a;
-                local[i] = dif[i] + amb[i] + a * sf->emission[i][l] + (1.0f - a) * behind[i];
+    }
+    for (int i = 0; i < 3; i++)
+        for (int l = 0; l < UB_LANES; l++)
+            ps->L[i][l] = on[l] != 0.0f ? ps->L[i][l] + ps->W[l] * ps->tint[i][l] * light[i][l] : ps->L[i][l];
+    if (bounce > 0)
+        for (int i = 0; i < 3; i++)
+            for (int l = 0; l < UB_LANES; l++)
+                ps->R[i][l] = on[l] != 0.0f ? ps->R[i][l] + ps->Wr[l] * ps->tint[i][l] * light[i][l] : ps->R[i][l];
+    else
+        for (int i = 0; i < 3; i++)
+            for (int l = 0; l < UB_LANES; l++) {
+                ps->pass_diffuse[i][l] = on[l] != 0.0f ? dif[i][l] : ps->pass_diffuse[i][l];
+                ps->pass_ambient[i][l] = on[l] != 0.0f ? amb[i][l] : ps->pass_ambient[i][l];
             }
-            ps->L[i][l] += ps->W[l] * ps->tint[i][l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
-            if (bounce > 0)
-                ps->R[i][l] += ps->Wr[l] * ps->tint[i][l] * (f * sh->fog_color[i] + (1.0f - f) * local[i]);
-        }
-        if (bounce == 0) {
-            for (int i = 0; i < 3; i++) {
-                ps->pass_diffuse[i][l] = dif[i];
-                ps->pass_ambient[i][l] = amb[i];
-                ps->pos0[i][l] = sf->p[i][l];
-                ps->nrm0[i][l] = sf->n[i][l];
-                ps->albedo0[i][l] = sf->albedo[i][l];
-            }
-            ps->pass_ao[l] = ao[l];
-            ps->pass_shadow[l] = shadow[l];
-            ps->pass_trap[l] = sf->trap[l];
-            ps->coverage[l] = a;
-            /* With global illumination the Reflection pass follows the mirrored paths. */
-            ps->Wr[l] = plan ? (plan->kind[l] == GI_MIRROR ? 1.0f : 0.0f) : r;
-        } else {
-            ps->Wr[l] *= (1.0f - f) * (plan ? 1.0f : r);
-        }
-        if (material)
-            ps->Wr[l] *= a;
+    for (int l = 0; l < UB_LANES; l++) {
+        const int hit = on[l] != 0.0f, mat = material[l] != 0.0f;
+        const float a = sf->alpha[l], kept = (1.0f - fog[l]) * (plan ? 1.0f : r[l]);
+        /* With global illumination the Reflection pass follows the mirrored paths. */
+        const float wr0 = plan ? (plan->kind[l] == GI_MIRROR ? 1.0f : 0.0f) : r[l], wr1 = ps->Wr[l] * kept;
+        const float wr = bounce == 0 ? wr0 : wr1, wr_material = wr * a;
         /* Global illumination: the bounce's weight is in the tint (its chances included). */
-        ps->W[l] *= (1.0f - f) * (plan ? 1.0f : r);
-        if (material)
-            ps->W[l] *= a;
-        if (!(ps->W[l] > 0.0f) || (plan && !gi_continue(plan, l, ps)))
+        const float w = ps->W[l] * kept, w_material = w * a;
+        ps->Wr[l] = hit ? (mat ? wr_material : wr) : ps->Wr[l];
+        ps->W[l] = hit ? (mat ? w_material : w) : ps->W[l];
+    }
+    if (bounce == 0) {
+        for (int l = 0; l < UB_LANES; l++) {
+            const int hit = on[l] != 0.0f;
+            for (int i = 0; i < 3; i++) {
+                ps->pos0[i][l] = hit ? sf->p[i][l] : ps->pos0[i][l];
+                ps->nrm0[i][l] = hit ? sf->n[i][l] : ps->nrm0[i][l];
+                ps->albedo0[i][l] = hit ? sf->albedo[i][l] : ps->albedo0[i][l];
+            }
+            ps->pass_ao[l] = hit ? ao[l] : ps->pass_ao[l];
+            ps->pass_shadow[l] = hit ? shadow[l] : ps->pass_shadow[l];
+            ps->pass_trap[l] = hit ? sf->trap[l] : ps->pass_trap[l];
+            ps->coverage[l] = hit ? sf->alpha[l] : ps->coverage[l];
+        }
+    }
+    /* The lanes whose paths go on: first as a bit word, so that a packet none of whose paths goes
+     * on (no reflection) skips the loop, which the compiler otherwise runs as vectors over every
+     * lane (issue 21: that was a quarter of the peer render with -fno-trapping-math). */
+    int going = 0, next = 0;
+    for (int l = 0; l < UB_LANES; l++)
+        going |= (ps->W[l] > 0.0f) << l;
+    going &= hit_lanes;
+    for (int l = 0; going >> l; l++) {
+        if (!((going >> l) & 1) || (plan && !gi_continue(plan, l, ps)))
             continue;
         /* Mirror reflection about the normal (which faces the incoming ray), or GI's drawn direction. */
         double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
