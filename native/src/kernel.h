@@ -315,19 +315,27 @@ static void chunk_primary(const ub_scene *sc, const ub_de_params *dps, const sam
         else /* nothing to march (the misses' results), or no pairs */
             trace(sc, dps, &ch->bp[b], ch->block_traced[b], flags, NULL, &ch->bt[b], cnt);
     }
-    for (int i = 0; i < n_busy; i += 2) {
-        const int b0 = busy[i];
-        if (i + 1 == n_busy) { /* the odd one out */
-            trace(sc, dps, &ch->bp[b0], ch->block_traced[b0], flags, NULL, &ch->bt[b0], cnt);
+    /* Four at a time (two interleaved pairs), then a pair, then the odd one out. */
+    for (int i = 0; i < n_busy;) {
+        const int n = n_busy - i >= 4 ? 4 : (n_busy - i >= 2 ? 2 : 1);
+        if (n == 1) {
+            trace(sc, dps, &ch->bp[busy[i]], ch->block_traced[busy[i]], flags, NULL, &ch->bt[busy[i]], cnt);
             break;
         }
-        const int b1 = busy[i + 1];
-        const ub_packet_rays *const both[2] = {&ch->bp[b0], &ch->bp[b1]};
-        const int both_lanes[2] = {ch->block_traced[b0], ch->block_traced[b1]};
-        ub_trace_result both_tr[2];
-        trace_pair(sc, dps, both, both_lanes, flags, both_tr, cnt);
-        ch->bt[b0] = both_tr[0];
-        ch->bt[b1] = both_tr[1];
+        const ub_packet_rays *group[4];
+        int group_lanes[4];
+        ub_trace_result group_tr[4];
+        for (int j = 0; j < n; j++) {
+            group[j] = &ch->bp[busy[i + j]];
+            group_lanes[j] = ch->block_traced[busy[i + j]];
+        }
+        if (n == 4)
+            trace_two_pairs(sc, dps, group, group_lanes, flags, group_tr, cnt);
+        else
+            trace_pair(sc, dps, group, group_lanes, flags, group_tr, cnt);
+        for (int j = 0; j < n; j++)
+            ch->bt[busy[i + j]] = group_tr[j];
+        i += n;
     }
     for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
         uint64_t steps = 0;

@@ -439,6 +439,42 @@ static inline __attribute__((always_inline)) void julia_estimates(const ub_de_pa
     }
 }
 
+/* One step of a pair of packets (march_julia_pair_body): the estimates at both packets' points in
+ * one loop, then each packet's step. Returns whether a lane of the pair still marches. */
+static inline __attribute__((always_inline)) int pair_step(const ub_de_params *dp, const ub_march_step *c,
+        const int relax, ub_march_state *m0, ub_march_state *m1, vf *const steps[2])
+{
+    ub_march_state *const m[2] = {m0, m1};
+    vf z[2][4], new_dist[2], new_iters[2];
+    const vm active[2] = {m0->active, m1->active};
+    for (int k = 0; k < 2; k++)
+        march_point(m[k], m[k]->s, z[k]);
+    julia_estimates(dp, active, z, new_dist, new_iters);
+    for (int k = 0; k < 2; k++)
+        march_advance(dp, c, relax, new_dist[k], new_iters[k], steps[k], NULL, v_set1(0.0f), m[k]);
+    return m_bits(m_or(m0->active, m1->active)) != 0;
+}
+
+/* One bisection step of a pair's hits; returns 0, and takes none, once neither packet wants one. */
+static inline __attribute__((always_inline)) int pair_bisect(const ub_de_params *dp, const ub_march_step *c,
+        ub_march_state *m0, ub_march_state *m1, ub_march_result res[2])
+{
+    const int wanted0 = bisect_wanted(dp, m0), wanted1 = bisect_wanted(dp, m1);
+    if (!wanted0 && !wanted1)
+        return 0;
+    ub_march_state *const m[2] = {m0, m1};
+    vf z[2][4], mid[2], dist[2], iters[2];
+    const vm refine[2] = {m0->refine, m1->refine};
+    for (int k = 0; k < 2; k++) {
+        mid[k] = bisect_mid(m[k]);
+        march_point(m[k], mid[k], z[k]);
+    }
+    julia_estimates(dp, refine, z, dist, iters);
+    for (int k = 0; k < 2; k++)
+        bisect_take(dp, c, mid[k], dist[k], iters[k], m[k], &res[k]);
+    return 1;
+}
+
 static inline __attribute__((always_inline)) void march_julia_pair_body(const ub_scene *sc, const ub_object *o,
         const ub_de_params *dp, const ub_object_rays *const r[2], const vf t_base[2], const int lanes[2],
         const int relax, const int refine_hits, ub_march_result res[2], vf *const steps[2], ub_counters *cnt)
@@ -449,49 +485,105 @@ static inline __attribute__((always_inline)) void march_julia_pair_body(const ub
     ub_march_state *const m[2] = {&m0, &m1};
     for (int k = 0; k < 2; k++)
         march_begin(r[k], t_base[k], lanes[k], relax, m[k], &res[k]);
-    for (int step = 0; step < o->max_steps && m_bits(m_or(m0.active, m1.active)); step++) {
+    int marching = m_bits(m_or(m0.active, m1.active)) != 0;
+    for (int step = 0; step < o->max_steps && marching; step++) {
         if (cancelled(sc))
             return;
-        vf z[2][4], new_dist[2], new_iters[2];
-        const vm active[2] = {m0.active, m1.active};
-        for (int k = 0; k < 2; k++)
-            march_point(m[k], m[k]->s, z[k]);
-        julia_estimates(dp, active, z, new_dist, new_iters);
-        for (int k = 0; k < 2; k++)
-            march_advance(dp, &c, relax, new_dist[k], new_iters[k], steps[k], NULL, v_set1(0.0f), m[k]);
+        marching = pair_step(dp, &c, relax, &m0, &m1, steps);
     }
     for (int k = 0; k < 2; k++)
         march_found(refine_hits, m[k], &res[k]);
-    for (int b = 0; b < o->bisection_steps && !cancelled(sc); b++) {
-        const int wanted0 = bisect_wanted(dp, &m0), wanted1 = bisect_wanted(dp, &m1);
-        if (!wanted0 && !wanted1)
+    for (int b = 0; b < o->bisection_steps && !cancelled(sc); b++)
+        if (!pair_bisect(dp, &c, &m0, &m1, res))
             break;
-        vf z[2][4], mid[2], dist[2], iters[2];
-        const vm refine[2] = {m0.refine, m1.refine};
-        for (int k = 0; k < 2; k++) {
-            mid[k] = bisect_mid(m[k]);
-            march_point(m[k], mid[k], z[k]);
-        }
-        julia_estimates(dp, refine, z, dist, iters);
-        for (int k = 0; k < 2; k++)
-            bisect_take(dp, &c, mid[k], dist[k], iters[k], m[k], &res[k]);
-    }
     for (int k = 0; k < 2; k++)
         march_end(m[k], &res[k], cnt);
 }
 
-/* march_julia_pair_body for camera rays (plain steps, refined hits) or hard shadow rays (any hit;
- * over-relaxed steps through an exact estimate, as march() takes them). */
+/* Two pairs of packets (four blocks of camera rays) through march_julia_pair_body's steps, a step
+ * of one pair, then a step of the other (issue 21). A pair's step ends in a chain of dependent
+ * operations (after its loop: the logarithm, the division and the root of the estimate, the step,
+ * the next point), as long as a third of the step, which its next loop must wait for. The other
+ * pair's loop does not: coming next in the program, it runs while that chain does, instead of
+ * after it. Each pair takes march_julia_pair_body's steps and bisection steps in its order, so
+ * each ray has the same bits and counts. */
+static inline __attribute__((always_inline)) void march_julia_two_pairs_body(const ub_scene *sc,
+        const ub_object *o, const ub_de_params *dp, const ub_object_rays *const r[4], const vf t_base[4],
+        const int lanes[4], const int relax, const int refine_hits, ub_march_result res[4], vf *const steps[4],
+        ub_counters *cnt)
+{
+    const ub_march_step c = march_step_of(o);
+    ub_march_state a0, a1, b0, b1;
+    ub_march_state *const m[4] = {&a0, &a1, &b0, &b1};
+    for (int k = 0; k < 4; k++)
+        march_begin(r[k], t_base[k], lanes[k], relax, m[k], &res[k]);
+    int marching_a = m_bits(m_or(a0.active, a1.active)) != 0, marching_b = m_bits(m_or(b0.active, b1.active)) != 0;
+    for (int step_a = 0, step_b = 0;;) {
+        marching_a &= step_a < o->max_steps;
+        marching_b &= step_b < o->max_steps;
+        if (!marching_a && !marching_b)
+            break;
+        if (cancelled(sc))
+            return;
+        if (marching_a) {
+            marching_a = pair_step(dp, &c, relax, &a0, &a1, steps);
+            step_a++;
+        }
+        if (marching_b) {
+            marching_b = pair_step(dp, &c, relax, &b0, &b1, steps + 2);
+            step_b++;
+        }
+    }
+    for (int k = 0; k < 4; k++)
+        march_found(refine_hits, m[k], &res[k]);
+    int refining_a = 1, refining_b = 1;
+    for (int b = 0; b < o->bisection_steps && (refining_a || refining_b) && !cancelled(sc); b++) {
+        if (refining_a)
+            refining_a = pair_bisect(dp, &c, &a0, &a1, res);
+        if (refining_b)
+            refining_b = pair_bisect(dp, &c, &b0, &b1, res + 2);
+    }
+    for (int k = 0; k < 4; k++)
+        march_end(m[k], &res[k], cnt);
+}
+
+/* march_julia_pair_body (pairs = 1) or march_julia_two_pairs_body (pairs = 2) for camera rays
+ * (plain steps, refined hits) or hard shadow rays (any hit; over-relaxed steps through an exact
+ * estimate, as march() takes them). */
+static inline __attribute__((always_inline)) void march_julia_pairs_kind(const ub_scene *sc, const ub_object *o,
+        const ub_de_params *dp, const ub_object_rays *const *r, const vf *t_base, const int *lanes, const int pairs,
+        const int relax, const int refine_hits, ub_march_result *res, vf *const *steps, ub_counters *cnt)
+{
+    if (pairs == 2)
+        march_julia_two_pairs_body(sc, o, dp, r, t_base, lanes, relax, refine_hits, res, steps, cnt);
+    else
+        march_julia_pair_body(sc, o, dp, r, t_base, lanes, relax, refine_hits, res, steps, cnt);
+}
+
+static inline __attribute__((always_inline)) void march_julia_pairs(const ub_scene *sc, const ub_object *o,
+        const ub_de_params *dp, const ub_object_rays *const *r, const vf *t_base, const int *lanes, const int pairs,
+        int any_hit, ub_march_result *res, vf *const *steps, ub_counters *cnt)
+{
+    if (!any_hit)
+        march_julia_pairs_kind(sc, o, dp, r, t_base, lanes, pairs, 0, 1, res, steps, cnt);
+    else if (o->exact)
+        march_julia_pairs_kind(sc, o, dp, r, t_base, lanes, pairs, 1, 0, res, steps, cnt);
+    else
+        march_julia_pairs_kind(sc, o, dp, r, t_base, lanes, pairs, 0, 0, res, steps, cnt);
+}
+
 static void march_julia_pair(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
                              const ub_object_rays *const r[2], const vf t_base[2], const int lanes[2], int any_hit,
                              ub_march_result res[2], vf *const steps[2], ub_counters *cnt)
 {
-    if (!any_hit)
-        march_julia_pair_body(sc, o, dp, r, t_base, lanes, 0, 1, res, steps, cnt);
-    else if (o->exact)
-        march_julia_pair_body(sc, o, dp, r, t_base, lanes, 1, 0, res, steps, cnt);
-    else
-        march_julia_pair_body(sc, o, dp, r, t_base, lanes, 0, 0, res, steps, cnt);
+    march_julia_pairs(sc, o, dp, r, t_base, lanes, 1, any_hit, res, steps, cnt);
+}
+
+static void march_julia_two_pairs(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
+                                  const ub_object_rays *const r[4], const vf t_base[4], const int lanes[4],
+                                  int any_hit, ub_march_result res[4], vf *const steps[4], ub_counters *cnt)
+{
+    march_julia_pairs(sc, o, dp, r, t_base, lanes, 2, any_hit, res, steps, cnt);
 }
 
 /* What a packet of rays hit. */
@@ -634,40 +726,78 @@ static int pair_traceable(const ub_scene *sc, const ub_de_params *dps)
     return 1;
 }
 
-/* trace() of two packets at once, camera rays or hard shadow rays (UB_TRACE_ANY_HIT, no
- * penumbra): each Julia set's march takes both packets' rays together (march_julia_pair). The same
- * hits and counts as two trace() calls. */
+/* One Julia set's march of the packets j, j + 1 of a trace_packets group: together where both have
+ * rays to march there, else each alone. */
+static void march_pair_or_each(const ub_scene *sc, const ub_object *o, const ub_de_params *dp,
+                               const ub_object_rays orays[2], const int active[2], const vf tb[2], int any_hit,
+                               ub_march_result res[2], ub_trace_state ts[2], ub_counters *cnt)
+{
+    if (active[0] && active[1] && julia_only(dp)) {
+        const ub_object_rays *const both[2] = {&orays[0], &orays[1]};
+        vf *const steps[2] = {&ts[0].steps, &ts[1].steps};
+        march_julia_pair(sc, o, dp, both, tb, active, any_hit, res, steps, cnt);
+        return;
+    }
+    for (int j = 0; j < 2; j++)
+        if (active[j])
+            march(sc, o, dp, &orays[j], tb[j], active[j], !any_hit, &res[j], &ts[j].steps, NULL, v_set1(0.0f), cnt);
+}
+
+/* trace() of n = 2 or 4 packets at once, camera rays or hard shadow rays (UB_TRACE_ANY_HIT, no
+ * penumbra): each Julia set's march takes two packets' rays together (march_julia_pair), and four
+ * as two interleaved pairs (march_julia_two_pairs) where all four have rays to march there. The
+ * same hits and counts as n trace() calls. */
+static inline __attribute__((always_inline)) void trace_packets(const ub_scene *sc, const ub_de_params *dps,
+        const ub_packet_rays *const *pr, const int n, const int *lanes, unsigned flags, ub_trace_result *out,
+        ub_counters *cnt)
+{
+    const int any_hit = (flags & UB_TRACE_ANY_HIT) != 0;
+    ub_trace_state ts[4];
+    vf tb[4];
+    int open = 0;
+    for (int j = 0; j < n; j++) {
+        trace_begin(sc, pr[j], lanes[j], flags, &out[j], &ts[j]);
+        tb[j] = v_load(pr[j]->t_base);
+        open |= ts[j].open;
+    }
+    for (int k = 0; k < sc->object_count && open; k++) {
+        const ub_object *o = &sc->objects[k];
+        ub_object_rays orays[4];
+        int active[4], all = 1;
+        ub_march_result res[4];
+        for (int j = 0; j < n; j++) {
+            active[j] = ts[j].open ? object_rays(o, pr[j], ts[j].best_t, ts[j].open, &orays[j]) : 0;
+            all &= active[j] != 0;
+        }
+        if (n == 4 && all && julia_only(&dps[k])) {
+            const ub_object_rays *const each[4] = {&orays[0], &orays[1], &orays[2], &orays[3]};
+            vf *const steps[4] = {&ts[0].steps, &ts[1].steps, &ts[2].steps, &ts[3].steps};
+            march_julia_two_pairs(sc, o, &dps[k], each, tb, active, any_hit, res, steps, cnt);
+        } else {
+            for (int j = 0; j < n; j += 2)
+                march_pair_or_each(sc, o, &dps[k], &orays[j], &active[j], &tb[j], any_hit, &res[j], &ts[j], cnt);
+        }
+        open = 0;
+        for (int j = 0; j < n; j++) {
+            if (active[j])
+                trace_take(k, &orays[j], active[j], &res[j], any_hit, &out[j], &ts[j]);
+            open |= ts[j].open;
+        }
+    }
+    for (int j = 0; j < n; j++)
+        trace_end(&ts[j], &out[j]);
+}
+
+/* trace() of two packets at once (trace_packets). */
 static void trace_pair(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays *const pr[2],
                        const int lanes[2], unsigned flags, ub_trace_result out[2], ub_counters *cnt)
 {
-    const int any_hit = (flags & UB_TRACE_ANY_HIT) != 0;
-    ub_trace_state ts[2];
-    vf tb[2];
-    for (int j = 0; j < 2; j++) {
-        trace_begin(sc, pr[j], lanes[j], flags, &out[j], &ts[j]);
-        tb[j] = v_load(pr[j]->t_base);
-    }
-    for (int k = 0; k < sc->object_count && (ts[0].open || ts[1].open); k++) {
-        const ub_object *o = &sc->objects[k];
-        ub_object_rays orays[2];
-        int active[2];
-        ub_march_result res[2];
-        for (int j = 0; j < 2; j++)
-            active[j] = ts[j].open ? object_rays(o, pr[j], ts[j].best_t, ts[j].open, &orays[j]) : 0;
-        if (active[0] && active[1] && julia_only(&dps[k])) {
-            const ub_object_rays *const both[2] = {&orays[0], &orays[1]};
-            vf *const steps[2] = {&ts[0].steps, &ts[1].steps};
-            march_julia_pair(sc, o, &dps[k], both, tb, active, any_hit, res, steps, cnt);
-        } else {
-            for (int j = 0; j < 2; j++)
-                if (active[j])
-                    march(sc, o, &dps[k], &orays[j], tb[j], active[j], !any_hit, &res[j], &ts[j].steps, NULL,
-                          v_set1(0.0f), cnt);
-        }
-        for (int j = 0; j < 2; j++)
-            if (active[j])
-                trace_take(k, &orays[j], active[j], &res[j], any_hit, &out[j], &ts[j]);
-    }
-    for (int j = 0; j < 2; j++)
-        trace_end(&ts[j], &out[j]);
+    trace_packets(sc, dps, pr, 2, lanes, flags, out, cnt);
+}
+
+/* trace() of four packets at once, as two interleaved pairs (trace_packets). */
+static void trace_two_pairs(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays *const pr[4],
+                            const int lanes[4], unsigned flags, ub_trace_result out[4], ub_counters *cnt)
+{
+    trace_packets(sc, dps, pr, 4, lanes, flags, out, cnt);
 }
