@@ -503,7 +503,7 @@ static inline __attribute__((always_inline)) void march_julia_pair_body(const ub
 /* Two pairs of packets (four blocks of camera rays) through march_julia_pair_body's steps, a step
  * of one pair, then a step of the other (issue 21). A pair's step ends in a chain of dependent
  * operations (after its loop: the logarithm, the division and the root of the estimate, the step,
- * the next point), as long as a third of the step, which its next loop must wait for. The other
+ * the next point), about as long as the loop itself, which its next loop must wait for. The other
  * pair's loop does not: coming next in the program, it runs while that chain does, instead of
  * after it. Each pair takes march_julia_pair_body's steps and bisection steps in its order, so
  * each ray has the same bits and counts. */
