@@ -323,18 +323,17 @@ static void chunk_primary(const ub_scene *sc, const ub_de_params *dps, const sam
             break;
         }
         const ub_packet_rays *group[4];
+        ub_trace_result *group_tr[4];
         int group_lanes[4];
-        ub_trace_result group_tr[4];
         for (int j = 0; j < n; j++) {
             group[j] = &ch->bp[busy[i + j]];
+            group_tr[j] = &ch->bt[busy[i + j]];
             group_lanes[j] = ch->block_traced[busy[i + j]];
         }
         if (n == 4)
             trace_two_pairs(sc, dps, group, group_lanes, flags, group_tr, cnt);
         else
             trace_pair(sc, dps, group, group_lanes, flags, group_tr, cnt);
-        for (int j = 0; j < n; j++)
-            ch->bt[busy[i + j]] = group_tr[j];
         i += n;
     }
     for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
@@ -749,10 +748,8 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
                 /* The world's packet of shadow rays with this light's, in one loop (trace_pair). */
                 const ub_packet_rays *const both[2] = {&sr, &world->sr};
                 const int both_lanes[2] = {cand, world->cand};
-                ub_trace_result both_st[2];
+                ub_trace_result *const both_st[2] = {&st, &world->st};
                 trace_pair(sc, dps, both, both_lanes, UB_TRACE_ANY_HIT, both_st, cnt);
-                st = both_st[0];
-                world->st = both_st[1];
                 world->traced = 1;
                 world = NULL;
             } else {
@@ -1178,14 +1175,11 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
     const float ambient_on = plan ? 0.0f : 1.0f;
     float fog[UB_LANES], behind[3][UB_LANES];
     surface_light_calls(sc, bounce, hit_lanes, sf, tr, pr, fog, behind);
-    /* Each lane's reflected share r (without a further bounce the surface shows its own colour in
-     * full), and whether it hit and has a material, as floats: one vector width in the loops. */
-    float r[UB_LANES], on[UB_LANES], material[UB_LANES];
-    for (int l = 0; l < UB_LANES; l++) {
+    /* Each lane's reflected share r: without a further bounce the surface shows its own colour in
+     * full. */
+    float r[UB_LANES];
+    for (int l = 0; l < UB_LANES; l++)
         r[l] = plan ? plan->mirror[l] : (last ? 0.0f : sf->reflectivity[l]);
-        on[l] = (float)((hit_lanes >> l) & 1);
-        material[l] = (float)((sf->bsdf_lanes >> l) & 1);
-    }
     float dif[3][UB_LANES], amb[3][UB_LANES], light[3][UB_LANES];
     for (int i = 0; i < 3; i++) {
         const float ambient = sh->ambient[i], fog_color = sh->fog_color[i];
@@ -1197,7 +1191,7 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
             const float amb_plain = keep * sf->albedo[i][l] * ambient * ao[l] * ambient_on, amb_material = amb_plain * a;
             const float local_plain = dif_plain + amb_plain;
             const float local_material = dif_material + amb_material + a * sf->emission[i][l] + (1.0f - a) * behind[i][l];
-            const int mat = material[l] != 0.0f;
+            const int mat = (sf->bsdf_lanes >> l) & 1;
             dif[i][l] = mat ? dif_material : dif_plain;
             amb[i][l] = mat ? amb_material : amb_plain;
             const float local = mat ? local_material : local_plain;
@@ -1206,19 +1200,19 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
     }
     for (int i = 0; i < 3; i++)
         for (int l = 0; l < UB_LANES; l++)
-            ps->L[i][l] = on[l] != 0.0f ? ps->L[i][l] + ps->W[l] * ps->tint[i][l] * light[i][l] : ps->L[i][l];
+            ps->L[i][l] = (hit_lanes >> l) & 1 ? ps->L[i][l] + ps->W[l] * ps->tint[i][l] * light[i][l] : ps->L[i][l];
     if (bounce > 0)
         for (int i = 0; i < 3; i++)
             for (int l = 0; l < UB_LANES; l++)
-                ps->R[i][l] = on[l] != 0.0f ? ps->R[i][l] + ps->Wr[l] * ps->tint[i][l] * light[i][l] : ps->R[i][l];
+                ps->R[i][l] = (hit_lanes >> l) & 1 ? ps->R[i][l] + ps->Wr[l] * ps->tint[i][l] * light[i][l] : ps->R[i][l];
     else
         for (int i = 0; i < 3; i++)
             for (int l = 0; l < UB_LANES; l++) {
-                ps->pass_diffuse[i][l] = on[l] != 0.0f ? dif[i][l] : ps->pass_diffuse[i][l];
-                ps->pass_ambient[i][l] = on[l] != 0.0f ? amb[i][l] : ps->pass_ambient[i][l];
+                ps->pass_diffuse[i][l] = (hit_lanes >> l) & 1 ? dif[i][l] : ps->pass_diffuse[i][l];
+                ps->pass_ambient[i][l] = (hit_lanes >> l) & 1 ? amb[i][l] : ps->pass_ambient[i][l];
             }
     for (int l = 0; l < UB_LANES; l++) {
-        const int hit = on[l] != 0.0f, mat = material[l] != 0.0f;
+        const int hit = (hit_lanes >> l) & 1, mat = (sf->bsdf_lanes >> l) & 1;
         const float a = sf->alpha[l], kept = (1.0f - fog[l]) * (plan ? 1.0f : r[l]);
         /* With global illumination the Reflection pass follows the mirrored paths. */
         const float wr0 = plan ? (plan->kind[l] == GI_MIRROR ? 1.0f : 0.0f) : r[l], wr1 = ps->Wr[l] * kept;
@@ -1230,7 +1224,7 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
     }
     if (bounce == 0) {
         for (int l = 0; l < UB_LANES; l++) {
-            const int hit = on[l] != 0.0f;
+            const int hit = (hit_lanes >> l) & 1;
             for (int i = 0; i < 3; i++) {
                 ps->pos0[i][l] = hit ? sf->p[i][l] : ps->pos0[i][l];
                 ps->nrm0[i][l] = hit ? sf->n[i][l] : ps->nrm0[i][l];
@@ -1318,10 +1312,8 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
                 for (int i = 0; i < 3; i++)
                     glow[i][l] = g * sh->glow_color[i];
             }
-        else /* 0 * colour, as the loop above would give for g = 0 (the colour is finite) */
-            for (int i = 0; i < 3; i++)
-                for (int l = 0; l < UB_LANES; l++)
-                    glow[i][l] = 0.0f * sh->glow_color[i];
+        else /* what the loop above gives for g = 0: the colour is finite and not negative */
+            memset(glow, 0, sizeof glow);
         put_lanes(pass[UB_PASS_GLOW], idx, 3, n, glow, sample, S, PASS_AVERAGED);
     }
     if (pass[UB_PASS_COMBINED] || pass[UB_PASS_ALPHA]) {

@@ -748,7 +748,7 @@ static void march_pair_or_each(const ub_scene *sc, const ub_object *o, const ub_
  * as two interleaved pairs (march_julia_two_pairs) where all four have rays to march there. The
  * same hits and counts as n trace() calls. */
 static inline __attribute__((always_inline)) void trace_packets(const ub_scene *sc, const ub_de_params *dps,
-        const ub_packet_rays *const *pr, const int n, const int *lanes, unsigned flags, ub_trace_result *out,
+        const ub_packet_rays *const *pr, const int n, const int *lanes, unsigned flags, ub_trace_result *const *out,
         ub_counters *cnt)
 {
     const int any_hit = (flags & UB_TRACE_ANY_HIT) != 0;
@@ -756,7 +756,7 @@ static inline __attribute__((always_inline)) void trace_packets(const ub_scene *
     vf tb[4];
     int open = 0;
     for (int j = 0; j < n; j++) {
-        trace_begin(sc, pr[j], lanes[j], flags, &out[j], &ts[j]);
+        trace_begin(sc, pr[j], lanes[j], flags, out[j], &ts[j]);
         tb[j] = v_load(pr[j]->t_base);
         open |= ts[j].open;
     }
@@ -780,24 +780,24 @@ static inline __attribute__((always_inline)) void trace_packets(const ub_scene *
         open = 0;
         for (int j = 0; j < n; j++) {
             if (active[j])
-                trace_take(k, &orays[j], active[j], &res[j], any_hit, &out[j], &ts[j]);
+                trace_take(k, &orays[j], active[j], &res[j], any_hit, out[j], &ts[j]);
             open |= ts[j].open;
         }
     }
     for (int j = 0; j < n; j++)
-        trace_end(&ts[j], &out[j]);
+        trace_end(&ts[j], out[j]);
 }
 
 /* trace() of two packets at once (trace_packets). */
 static void trace_pair(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays *const pr[2],
-                       const int lanes[2], unsigned flags, ub_trace_result out[2], ub_counters *cnt)
+                       const int lanes[2], unsigned flags, ub_trace_result *const out[2], ub_counters *cnt)
 {
     trace_packets(sc, dps, pr, 2, lanes, flags, out, cnt);
 }
 
 /* trace() of four packets at once, as two interleaved pairs (trace_packets). */
 static void trace_two_pairs(const ub_scene *sc, const ub_de_params *dps, const ub_packet_rays *const pr[4],
-                            const int lanes[4], unsigned flags, ub_trace_result out[4], ub_counters *cnt)
+                            const int lanes[4], unsigned flags, ub_trace_result *const out[4], ub_counters *cnt)
 {
     trace_packets(sc, dps, pr, 4, lanes, flags, out, cnt);
 }
