@@ -75,19 +75,19 @@ def _fail(engine, message):
 # one per view). With several samples also the add-on's running sums and the core's hit buffer
 # (ub_hit: t, iterations, distance, steps, a 16-bit object and out-of-steps flag) for the whole
 # frame; with one sample only a band's (_render_bands: about a sixteenth of the frame, counted as
-# an eighth, and at least BAND_MIN_PIXELS). All passes, one view: 36 channels, 452 bytes per
+# an eighth, and a small frame's band as it is, band_rows). All passes, one view: 36 channels, 452 bytes per
 # pixel with several samples, 309 with one.
 HIT_BYTES = 20
 
 
-def memory_estimate(width, height, wanted, views=1, samples=1):
+def memory_estimate(width, height, wanted, views=1, samples=1, tile_size=32):
     """(bytes, bytes per pixel) that a render of width x height pixels with passes `wanted` needs."""
     channels = sum(p.channels for p in wanted) + (0 if any(p.native == "depth" for p in wanted) else 1)
     working = 4 * channels + HIT_BYTES   # the add-on's buffers and the core's hit buffer
     per_pixel = 4 * channels * 2 * views + (working if samples > 1 else -(-working // 8))
     needed = per_pixel * width * height
     if samples == 1:  # a small frame's band is more than an eighth of it (band_rows)
-        needed += working * max(0, BAND_MIN_PIXELS - width * height // 8)
+        needed += working * max(0, band_rows(width, height, tile_size) * width - width * height // 8)
     return needed, per_pixel
 
 
@@ -122,10 +122,10 @@ def memory_available():
     return available
 
 
-def memory_preflight(width, height, wanted, views=1, samples=1):
+def memory_preflight(width, height, wanted, views=1, samples=1, tile_size=32):
     """A RenderError before anything is allocated when the render cannot fit in memory: the figure,
     and what to turn off."""
-    needed, per_pixel = memory_estimate(width, height, wanted, views, samples)
+    needed, per_pixel = memory_estimate(width, height, wanted, views, samples, tile_size)
     available = memory_available()
     if available is None or needed <= available:
         return
@@ -207,16 +207,42 @@ def write_pass(layer, render_pass, view, values):
 # Every band costs the same whatever its size: Blender's begin_result/end_result merge, one
 # foreach_set per pass and the core's per-call setup (about 0.16 ms of CPU a band, measured with
 # bench_f12.py --animation at 640x360: 16 bands 1.27x the bare core's CPU, 2 bands 1.15x). So a band
-# is a sixteenth of the window (progress to watch, an eighth's memory) but no fewer pixels than this.
+# is a sixteenth of the window (progress to watch, an eighth's memory) but no fewer pixels than this:
+# a window of fewer than twice as many is one band (a 640x360 frame: 2 bands cost an animation about
+# 1 ms of CPU a frame more than one, bench/README.md).
 BAND_MIN_PIXELS = 1 << 17
 
 
 def band_rows(width, height, tile_size):
-    """Rows of one band of a one-sample render: a sixteenth of the window, at least BAND_MIN_PIXELS
-    pixels, in whole tiles (so the threads share each band's tiles), at least one tile."""
-    rows = max(-(-height // 16), -(-BAND_MIN_PIXELS // max(width, 1)))
+    """Rows of one band of a one-sample render: the window cut into as many bands of at least
+    BAND_MIN_PIXELS pixels as it holds, at most 16, in whole tiles (so the threads share each band's
+    tiles), at least one tile."""
+    bands = min(max(width * height // BAND_MIN_PIXELS, 1), 16)
+    rows = -(-height // bands)
     rows = -(-rows // tile_size) * tile_size
     return max(min(rows, height), 1)
+
+
+class BandBuffers:
+    """The add-on's buffers of one band, kept from one render to the next (issue 21): an animation's
+    frames have the same bands, and fresh arrays cost their allocation each frame. At most one
+    band's worth is held between renders (what the render needed anyway); a render of another
+    band size or other passes replaces it. F12 renders run one at a time (Blender's render job)."""
+
+    _kept = {}
+
+    @classmethod
+    def get(cls, wanted, rows, width):
+        """{native pass name: float32 (rows, width, channels)} for `wanted` ((name, channels) pairs);
+        contents undefined: the core writes every pixel (clear_unfinished on a cancel)."""
+        buffers = {}
+        for name, channels in wanted:
+            kept = cls._kept.get(name)
+            buffers[name] = kept if kept is not None and kept.shape == (rows, width, channels) else \
+                np.empty((rows, width, channels), np.float32)
+        cls._kept.clear()
+        cls._kept.update(buffers)
+        return buffers
 
 
 def _render_bands(engine, depsgraph, core, image, objects, shading, window, label):
@@ -229,12 +255,13 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
     scene = depsgraph.scene
     width, height, camera = image
     x0, y0, w, h = window
-    options = dict(shading=shading, poll_interval=0.02, **export.render_options(scene))
+    # clear_unfinished: what a cancel does not reach is transparent black, without a fill beforehand.
+    options = dict(shading=shading, poll_interval=0.02, clear_unfinished=True, **export.render_options(scene))
     rows = band_rows(w, h, options["tile_size"])
     bands = -(-h // rows)
     progress = Progress(engine, label, 1, 1)
     cameras = {}
-    buffers = {}
+    buffers = None
     totals = dict(rays=0, steps=0, iterations=0, out_of_steps=0, seconds=0.0)
     camera_rays = 0  # of the result's pixels, every view rendered
     stats, ratio, cancelled = None, None, False
@@ -244,11 +271,10 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
         keep = False
         try:
             layer, views, present = result_passes(result)
-            for p in present:
-                if p.native not in buffers:
-                    buffers[p.native] = np.empty((rows, w, p.channels), np.float32)
-            # Depth is always rendered: the core's precision check reads it.
-            buffers.setdefault("depth", np.empty((rows, w, 1), np.float32))
+            if buffers is None:
+                # Depth is always rendered: the core's precision check reads it.
+                wanted = dict([("depth", 1)] + [(p.native, p.channels) for p in present])
+                buffers = BandBuffers.get(wanted.items(), rows, w)
             band_buffers = {n: b[:bh] for n, b in buffers.items()}
             for index, view in enumerate(views):
                 if view not in cameras:
@@ -256,9 +282,6 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
                         engine.active_view_set(view)
                     cameras[view] = camera if len(views) == 1 else \
                         export.camera_description(engine, depsgraph, width, height)
-                for b in band_buffers.values():
-                    b.fill(0.0)  # what a cancel does not reach stays transparent black
-
                 def poll(fraction, band=band, index=index):
                     return progress.update(0, 0, (band + (index + fraction) / len(views)) / bands)
 
@@ -335,7 +358,7 @@ def _render_frame(engine, depsgraph, times):
     w, h = window[2], window[3]
     views = [v.name for v in scene.render.views if v.use] if scene.render.use_multiview else [""]
     samples = int(shading.get("samples", 1))
-    memory_preflight(w, h, wanted, max(len(views), 1), samples)
+    memory_preflight(w, h, wanted, max(len(views), 1), samples, scene.unbound.tile_size)
     label = "Frame %d | %s" % (frame, view_layer.name)
     engine.update_stats("", "Unbound | %s | %d fractal object%s" % (label, len(objects), "" if len(objects) == 1 else "s"))
     # Never silent: meshes and other objects only Cycles renders are named once per render.

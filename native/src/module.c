@@ -591,6 +591,7 @@ static int parse_render_options(PyObject *kw, const ub_camera *cam, const ub_sha
     opt->threads = in.threads;
     opt->tile_size = in.tile_size;
     opt->shared_steps = in.shared_steps;
+    opt->clear_unfinished = in.clear_unfinished;
     opt->isa = (ub_isa)in.simd;
     opt->poll_interval_ns = (int64_t)(in.poll_interval * 1e9);
     /* Finite is not enough: 1e300 would become an infinite float32 in every missed pixel. */
@@ -777,16 +778,17 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *kwlist[] = {"camera", "objects", "passes", "window", "threads", "tile_size", "simd",
                              "progress", "cancel", "background", "poll_interval", "shading", "stride",
-                             "sample_range", "world", "shared_steps", NULL};
+                             "sample_range", "world", "shared_steps", "clear_unfinished", NULL};
     PyObject *camera_o, *objects_o, *passes_o, *progress = Py_None, *cancel = Py_None, *shading_o = NULL;
     PyObject *world_o = Py_None;
-    PyObject *kw[9] = {NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
+    PyObject *kw[10] = {NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
                                      &kw[0], &kw[1], &kw[2], &kw[3], &progress, &cancel, &kw[4], &kw[5],
-                                     &shading_o, &kw[6], &kw[7], &world_o, &kw[8]))
+                                     &shading_o, &kw[6], &kw[7], &world_o, &kw[8], &kw[9]))
         return NULL;
-    static const char *const kw_names[9] = {"window", "threads", "tile_size", "simd", "background",
-                                            "poll_interval", "stride", "sample_range", "shared_steps"};
+    static const char *const kw_names[10] = {"window", "threads", "tile_size", "simd", "background",
+                                             "poll_interval", "stride", "sample_range", "shared_steps",
+                                             "clear_unfinished"};
 
     ub_camera cam;
     /* As many object records as given (parse_objects refuses more than UB_MAX_OBJECTS): a record
@@ -804,12 +806,12 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
     int count = 0;
     ub_film film;
     memset(&film, 0, sizeof film);
-    ub_render_options opt = {0, 32, UB_ISA_AUTO, NULL, NULL, 10000000L, 0, 0, 1};
+    ub_render_options opt = {0, 32, UB_ISA_AUTO, NULL, NULL, 10000000L, 0, 0, 1, 0};
     if (!objs || !shading || !render_kw) {
         PyErr_NoMemory();
         goto done;
     }
-    for (int i = 0; i < 9; i++)
+    for (int i = 0; i < 10; i++)
         if (kw[i] && PyDict_SetItemString(render_kw, kw_names[i], kw[i]))
             goto done;
     if (parse_camera(camera_o, &cam) || parse_objects(objects_o, objs, &count) || parse_shading(shading_o, shading)
@@ -1409,11 +1411,12 @@ static PyMethodDef methods[] = {
     {"render", (PyCFunction)(void (*)(void))py_render, METH_VARARGS | METH_KEYWORDS,
      "render(camera, objects, passes, *, window=None, threads=0, tile_size=32, simd='auto', progress=None, "
      "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None, stride=1, sample_range=None, "
-     "world=None, shared_steps=1) "
+     "world=None, shared_steps=1, clear_unfinished=False) "
      "-> stats dict. stride s renders the image pixels (x + s i, y + s j) of window (x, y, columns, rows) "
      "only; sample_range (first, count) renders those samples into buffers holding the earlier ones' sum. "
      "After a cancel (stats['cancelled']) the passes are partial: with several samples, undivided sums of "
-     "the samples done. stats['footprint_ratio']: a pixel's footprint at the nearest hit of the depth pass "
+     "the samples done; cancelled in the first sample, the tiles not finished keep what the buffers held, or are "
+     "zeros with clear_unfinished=True. stats['footprint_ratio']: a pixel's footprint at the nearest hit of the depth pass "
      "over the largest world bounding radius (None without depth or hits); below PRECISION_LIMIT float32 no "
      "longer resolves the surface. stats['out_of_steps']: camera rays of the window (each sample) that ran out "
      "of max_steps before they hit or left a fractal (the 'max_steps' pass marks them). world: the World's "

@@ -150,7 +150,7 @@ typedef struct {
 /* render()'s keywords beside camera, objects and passes. */
 typedef struct {
     double window[4];         /* whole numbers; not given: the whole image */
-    int threads, tile_size, simd, stride, shared_steps;
+    int threads, tile_size, simd, stride, shared_steps, clear_unfinished;
     double poll_interval, background[4];
     double sample_range[2];   /* whole numbers (first, count); not given: all samples */
 } ub_render_input;

@@ -103,6 +103,8 @@ typedef struct {
     int tile, tiles_x, tile_count;
     int next_tile;  /* atomic: next tile to hand out */
     int tiles_done; /* atomic */
+    /* Film jobs with clear_unfinished: 1 per tile finished before any cancel; else NULL. */
+    unsigned char *tile_finished;
 } ub_pool;
 
 typedef struct {
@@ -128,6 +130,14 @@ static void tile_rows(const ub_pool *pool, int t, int *ty, int *ty1)
     *ty1 = *ty + pool->tile < pool->height ? *ty + pool->tile : pool->height;
 }
 
+/* A tile counts as finished only when no cancel came before its end: a cancel cuts the kernel
+ * short anywhere in the tile (kernel.h, cancelled), and the flag never goes back to 0. */
+static void mark_finished(ub_pool *pool, int t)
+{
+    if (pool->tile_finished && !__atomic_load_n(pool->scene->cancel, __ATOMIC_RELAXED))
+        pool->tile_finished[t] = 1;
+}
+
 /* A worker's share of the current job: tiles until none is left or the render is cancelled. */
 static void work_on_job(ub_pool *pool, ub_counters *cnt)
 {
@@ -138,6 +148,7 @@ static void work_on_job(ub_pool *pool, ub_counters *cnt)
         int ty, ty1;
         tile_rows(pool, t, &ty, &ty1);
         run_tile(pool, t, ty, ty1, cnt);
+        mark_finished(pool, t);
         __atomic_fetch_add(&pool->tiles_done, 1, __ATOMIC_RELEASE);
     }
 }
@@ -227,6 +238,7 @@ static void run_job_on_caller(ub_pool *pool, const ub_render_options *opt, int j
                 fp = ub_fp_enter();
             }
         }
+        mark_finished(pool, t);
     }
     ub_fp_leave(fp);
 }
@@ -239,6 +251,8 @@ static void run_job(ub_pool *pool, int started, const ub_render_options *opt, in
     pool->tile_count = pool->tiles_x * ((pool->height + pool->tile - 1) / pool->tile);
     pool->next_tile = 0;
     pool->tiles_done = 0;
+    if (pool->tile_finished)
+        memset(pool->tile_finished, 0, (size_t)pool->tile_count);
     if (!started) {
         run_job_on_caller(pool, opt, job_index, job_total);
         return;
@@ -326,6 +340,28 @@ static void cone_cache_free(ub_cone_cache *c)
     c->ready = NULL;
 }
 
+/* Zeroes every pass of the film over the tiles of the film's grid not marked in `finished` (all of
+ * them when the film job never ran): what a render cancelled in its first sample did not reach
+ * is transparent black, as if the caller had cleared its buffers before the render. */
+static void clear_unfinished_tiles(const ub_film *film, int tile, const unsigned char *finished)
+{
+    const int tiles_x = (film->w + tile - 1) / tile, tiles_y = (film->h + tile - 1) / tile;
+    for (int t = 0; t < tiles_x * tiles_y; t++) {
+        if (finished[t])
+            continue;
+        const int x0 = (t % tiles_x) * tile, y0 = (t / tiles_x) * tile;
+        const int x1 = x0 + tile < film->w ? x0 + tile : film->w, y1 = y0 + tile < film->h ? y0 + tile : film->h;
+        for (int p = 0; p < UB_PASS_COUNT; p++) {
+            if (!film->pass[p])
+                continue;
+            const size_t ch = (size_t)ub_pass_channels[p];
+            for (int y = y0; y < y1; y++)
+                memset(film->pass[p] + ((size_t)y * (size_t)film->w + (size_t)x0) * ch, 0,
+                       (size_t)(x1 - x0) * ch * sizeof(float));
+        }
+    }
+}
+
 const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub_render_stats *stats)
 {
     memset(stats, 0, sizeof *stats);
@@ -367,9 +403,16 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
     ub_thread_counters *per_thread = calloc((size_t)threads, sizeof(ub_thread_counters));
     ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
-    if (!per_thread || !workers || (apron && !hb.hits) || !cones_ok) {
+    /* Tiles finished in the first sample, when a cancel there is to clear the others. */
+    const int first = opt->sample_count > 0 ? opt->first_sample : 0;
+    const int count = opt->sample_count > 0 ? opt->sample_count : scene.shading->samples;
+    const int film_tiles = ((film->w + opt->tile_size - 1) / opt->tile_size)
+                         * ((film->h + opt->tile_size - 1) / opt->tile_size);
+    unsigned char *finished = opt->clear_unfinished && first == 0 ? calloc((size_t)film_tiles, 1) : NULL;
+    if (!per_thread || !workers || (apron && !hb.hits) || !cones_ok || (opt->clear_unfinished && first == 0 && !finished)) {
         free(per_thread);
         free(workers);
+        free(finished);
         hit_buffer_give_back(hb.hits);
         cone_cache_free(&cones);
         return "out of memory (the image is too large for this machine)";
@@ -384,11 +427,12 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     pool.per_thread = per_thread;
     pool.tile = opt->tile_size;
     int started = pool_start(&pool, workers, threads < tiles ? threads : (tiles > 0 ? tiles : 1));
-    int first = opt->sample_count > 0 ? opt->first_sample : 0;
-    int count = opt->sample_count > 0 ? opt->sample_count : scene.shading->samples;
+    int last_sample = first;
     for (int s = first; s < first + count && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); s++) {
+        last_sample = s;
         for (int phase = 0; phase < phases && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); phase++) {
             pool.phase = phases == 1 ? UB_PHASE_TRACE_AND_SHADE : phase;
+            pool.tile_finished = s == 0 && pool.phase != UB_PHASE_TRACE ? finished : NULL;
             pool.sample = s;
             /* One phase: the hit buffer's grid is the film's. */
             pool.width = pool.phase == UB_PHASE_TRACE ? hb.w : film->w;
@@ -412,6 +456,9 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     stats->threads = started ? started : 1;
     stats->isa = ub_isa_names[kernel];
     stats->cancelled = __atomic_load_n(scene.cancel, __ATOMIC_RELAXED) != 0;
+    if (finished && stats->cancelled && last_sample == 0)
+        clear_unfinished_tiles(film, opt->tile_size, finished);
+    free(finished);
     free(per_thread);
     free(workers);
     hit_buffer_give_back(hb.hits);

@@ -21,6 +21,10 @@ typedef struct {
      * sample at a time, and the last one divides as a whole render does. sample_count 0: all. */
     int first_sample, sample_count;
     int shared_steps; /* shared first steps per block of pixels (kernel cone.h); 0: off */
+    /* A cancel in the first sample (first_sample 0) zeroes the film's tiles that were not
+     * finished (render.c, clear_unfinished_tiles): the caller's buffers need no clearing before a
+     * render that may be cancelled. */
+    int clear_unfinished;
 } ub_render_options;
 
 typedef struct {

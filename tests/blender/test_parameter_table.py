@@ -13,7 +13,8 @@ SET_ELSEWHERE = {
                "cancel": "viewport.py (a threading.Event per refinement)",
                "poll_interval": "engine.py and viewport.py",
                "stride": "viewport.py (progressive refinement)",
-               "sample_range": "viewport.py (samples one at a time)"},
+               "sample_range": "viewport.py (samples one at a time)",
+               "clear_unfinished": "engine.py (one-sample bands, issue 21: no clearing before each band)"},
     "object": {"matrix": "export.fractal_objects, per instance"},
 }
 # Keys no part of the add-on sets, each with why: the core's default is what Blender renders with.
