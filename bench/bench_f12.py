@@ -22,7 +22,9 @@ against the bare core rendering the same 48 frames' scenes: each frame exported 
 (untimed), then one core call per frame into buffers of the same passes. Blender's PNG writing
 is the user's cost with either (the core alone writes no file), so it is measured apart: the same
 48 frames as F12s that write nothing (frame_set, then bpy.ops.render.render()), whose difference
-to the animation is what saving the frames costs. Interleaved rounds, medians of CPU time.
+to the animation is what saving the frames costs. Interleaved rounds, medians of CPU time; and
+what an F12 frame costs beyond its core calls (its CPU less theirs: steadier than the ratio, which
+moves with the core's own time).
 
     python bench/bench_f12.py [--repeats 3] [--res 1920x1080] [--memory] [--motion-blur [--samples 16]]
                               [--animation [--res 640x360]]
@@ -182,21 +184,47 @@ def animation(width, height, repeats, frames=48):
         for camera, objects, shading, options in scenes:
             core.render(camera, objects, buffers, shading=shading, **options)
 
+    # The CPU of the core's calls within F12, so that the rest (Blender's frame change and render
+    # pipeline, the add-on's export and copies) is known apart from the core's own variation.
+    utils = sys.modules[module + ".utils"]
+    inside = [0.0]
+
+    class TimedCore:
+        def __getattr__(self, name):
+            return getattr(core, name)
+
+        def render(self, *args, **kw):
+            c = time.process_time()
+            try:
+                return core.render(*args, **kw)
+            finally:
+                inside[0] += time.process_time() - c
+
     def f12_each_frame():
-        for frame in range(1, frames + 1):
-            scene.frame_set(frame)
-            bpy.ops.render.render()
+        native, utils.native = utils.native, TimedCore
+        try:
+            for frame in range(1, frames + 1):
+                scene.frame_set(frame)
+                bpy.ops.render.render()
+        finally:
+            utils.native = native
 
     rows = {"animation": [], "f12": [], "core": []}
     runs = {"animation": lambda: bpy.ops.render.render(animation=True), "f12": f12_each_frame, "core": bare_core}
+    beside = []  # ms of CPU a frame of F12 beyond its core calls
     for _ in range(repeats):  # interleaved, so that load changes hit all alike
         for name, run in runs.items():
+            inside[0] = 0.0
             rows[name].append(timed(run))
+            if name == "f12":
+                beside.append((rows[name][-1][1] - inside[0]) / frames * 1e3)
     for name in ("animation", "f12"):
         ratio = [a[1] / b[1] for a, b in zip(rows[name], rows["core"])]
         print("%s: wall %s s, CPU %s s; CPU / bare core %s" % (
             "animation (PNGs)" if name == "animation" else "F12 per frame, no files", summary([t[0] for t in rows[name]]),
             summary([t[1] for t in rows[name]]), summary(ratio)))
+    print("F12 per frame beyond its core calls (Blender's frame change and pipeline, the add-on): %s ms of CPU"
+          % summary(beside))
     print("bare core, %d frames at %dx%d, passes %s: wall %s s, CPU %s s" % (
         frames, width, height, ",".join(sorted(buffers)), summary([t[0] for t in rows["core"]]),
         summary([t[1] for t in rows["core"]])))
