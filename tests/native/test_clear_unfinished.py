@@ -10,11 +10,11 @@ import unbound_core as uc
 
 from conftest import alloc_passes, make_camera
 
-OBJECT = dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=40, detail=2.0)
+OBJECT = dict(mu=(-0.2, 0.8, 0.1, 0.0), max_iterations=80, detail=2.0)
 SHADING = dict(shadows="soft", lights=[dict(type="area", position=(2.0, -2.0, 3.0), radius=0.5,
                                             color=(3.0, 3.0, 3.0))])
 NAMES = ["combined", "depth", "normal", "shadow", "steps"]
-WIDTH, HEIGHT, TILE = 320, 192, 32
+WIDTH, HEIGHT, TILE = 480, 288, 32
 
 
 def render(obj=OBJECT, shading=SHADING, cancel_at=None, **kw):
@@ -23,7 +23,7 @@ def render(obj=OBJECT, shading=SHADING, cancel_at=None, **kw):
     passes = alloc_passes(WIDTH, HEIGHT, NAMES)
     progress = None if cancel_at is None else (lambda fraction: fraction >= cancel_at)
     stats = uc.render(make_camera(WIDTH, HEIGHT), [obj], passes, shading=shading, tile_size=TILE, threads=2,
-                      background=(0.1, 0.1, 0.1, 1.0), progress=progress, poll_interval=0.0005, **kw)
+                      background=(0.1, 0.1, 0.1, 1.0), progress=progress, poll_interval=0.0001, **kw)
     return stats, passes
 
 
@@ -53,16 +53,17 @@ def test_a_cancel_in_the_first_sample_leaves_rendered_tiles_and_zeros(normal_met
     obj = dict(OBJECT, normal_method=normal_method)
     _, full = render(obj)
     assert not any(np.isnan(full[n]).any() for n in NAMES)
-    seen = set()
+    kept = cleared = 0
     for cancel_at in (0.0, 0.2, 0.5, 0.8):
         stats, passes = render(obj, cancel_at=cancel_at, clear_unfinished=True)
         if not stats["cancelled"]:  # the render ended before its first poll: nothing to check
             continue
         assert not any(np.isnan(passes[n]).any() for n in NAMES), cancel_at
+        # (A slow machine may poll only after the last tile ended: every tile kept, none cleared.)
         equal, zero = classify(passes, full)
-        assert zero > 0, cancel_at
-        seen.add(equal > 0)
-    assert True in seen, "no cancel came after a finished tile: the test checked only zeros"
+        kept, cleared = kept + equal, cleared + zero
+    assert cleared > 0, "no cancel left a tile unfinished: the test checked no clearing"
+    assert kept > 0, "no cancel came after a finished tile: the test checked only zeros"
 
 
 def test_without_the_flag_a_cancel_leaves_the_buffers_as_they_were():
