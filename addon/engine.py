@@ -75,8 +75,8 @@ def _fail(engine, message):
 # one per view). With several samples also the add-on's running sums and the core's hit buffer
 # (ub_hit: t, iterations, distance, steps, a 16-bit object and out-of-steps flag) for the whole
 # frame; with one sample only a band's (_render_bands: about a sixteenth of the frame, counted as
-# an eighth, and a small frame's band as it is, band_rows). All passes, one view: 36 channels, 452 bytes per
-# pixel with several samples, 309 with one.
+# an eighth, and a small frame's band as band_rows makes it). All passes, one view: 36 channels,
+# 452 bytes per pixel with several samples, 309 with one.
 HIT_BYTES = 20
 
 
@@ -233,10 +233,10 @@ class BandBuffers:
 
     @classmethod
     def get(cls, wanted, rows, width):
-        """{native pass name: float32 (rows, width, channels)} for `wanted` ((name, channels) pairs);
+        """{native pass name: float32 (rows, width, channels)} for `wanted` ({name: channels});
         contents undefined: the core writes every pixel (clear_unfinished on a cancel)."""
         buffers = {}
-        for name, channels in wanted:
+        for name, channels in wanted.items():
             kept = cls._kept.get(name)
             buffers[name] = kept if kept is not None and kept.shape == (rows, width, channels) else \
                 np.empty((rows, width, channels), np.float32)
@@ -274,7 +274,7 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
             if buffers is None:
                 # Depth is always rendered: the core's precision check reads it.
                 wanted = dict([("depth", 1)] + [(p.native, p.channels) for p in present])
-                buffers = BandBuffers.get(wanted.items(), rows, w)
+                buffers = BandBuffers.get(wanted, rows, w)
             band_buffers = {n: b[:bh] for n, b in buffers.items()}
             for index, view in enumerate(views):
                 if view not in cameras:

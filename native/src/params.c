@@ -266,8 +266,8 @@ static const ub_param render_rows[] = {
             "1: the camera rays of each 8 x 8 block of pixels start where one cone marched for the block is empty of "
             "the scene (projection cameras without depth of field; issue 21); 0: every ray marches from the clip plane"),
     FLAG(R, clear_unfinished, NULL,
-         "True: a cancelled render leaves zeros (transparent black) in every tile it did not finish, so the buffers "
-         "need no clearing beforehand; False: those pixels keep what the buffers held"),
+         "True: a render cancelled in its first sample leaves zeros (transparent black) in every tile it did not "
+         "finish, so the buffers need no clearing beforehand; False: those pixels keep what the buffers held"),
     VECTOR(R, sample_range, 2, -HUGE_VAL, HUGE_VAL, NULL, UB_PARAM_NONE_OK,
            "2 integers (first, count): these samples, added to buffers holding the earlier ones' sum"),
     {"progress", UB_PARAM_CUSTOM, 0, 1, 1, 0, 0, NULL, NULL, UB_PARAM_NONE_OK,

@@ -403,13 +403,15 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
     ub_thread_counters *per_thread = calloc((size_t)threads, sizeof(ub_thread_counters));
     ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
-    /* Tiles finished in the first sample, when a cancel there is to clear the others. */
+    /* The tiles the first sample finished, when a cancel there is to clear the others: marked
+     * during sample 0's film job only, so a cancel in a later sample finds them all marked. */
     const int first = opt->sample_count > 0 ? opt->first_sample : 0;
     const int count = opt->sample_count > 0 ? opt->sample_count : scene.shading->samples;
+    const int clearing = opt->clear_unfinished && first == 0;
     const int film_tiles = ((film->w + opt->tile_size - 1) / opt->tile_size)
                          * ((film->h + opt->tile_size - 1) / opt->tile_size);
-    unsigned char *finished = opt->clear_unfinished && first == 0 ? calloc((size_t)film_tiles, 1) : NULL;
-    if (!per_thread || !workers || (apron && !hb.hits) || !cones_ok || (opt->clear_unfinished && first == 0 && !finished)) {
+    unsigned char *finished = clearing ? calloc((size_t)film_tiles, 1) : NULL;
+    if (!per_thread || !workers || (apron && !hb.hits) || !cones_ok || (clearing && !finished)) {
         free(per_thread);
         free(workers);
         free(finished);
@@ -427,9 +429,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     pool.per_thread = per_thread;
     pool.tile = opt->tile_size;
     int started = pool_start(&pool, workers, threads < tiles ? threads : (tiles > 0 ? tiles : 1));
-    int last_sample = first;
     for (int s = first; s < first + count && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); s++) {
-        last_sample = s;
         for (int phase = 0; phase < phases && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); phase++) {
             pool.phase = phases == 1 ? UB_PHASE_TRACE_AND_SHADE : phase;
             pool.tile_finished = s == 0 && pool.phase != UB_PHASE_TRACE ? finished : NULL;
@@ -456,7 +456,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     stats->threads = started ? started : 1;
     stats->isa = ub_isa_names[kernel];
     stats->cancelled = __atomic_load_n(scene.cancel, __ATOMIC_RELAXED) != 0;
-    if (finished && stats->cancelled && last_sample == 0)
+    if (finished && stats->cancelled)
         clear_unfinished_tiles(film, opt->tile_size, finished);
     free(finished);
     free(per_thread);
