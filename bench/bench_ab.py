@@ -10,7 +10,9 @@ Scenes (bench_core.py's peer scene, quaternion Julia set mu = -0.2+0.8i, 16 iter
   all   640x512, every pass, bench_effects.py's "everything" row (a soft sun with shadows, AO,
         reflections and the sea, fog, glow, 4 samples);
   NAME  640x512, passes combined, alpha, depth, any other row of bench_effects.py (hard, soft, ao,
-        reflect, sea, fog, glow, samples4, n_potential, n_zbuffer, n_analytic).
+        reflect, sea, fog, glow, samples4, n_potential, n_zbuffer, n_analytic);
+  world 640x512, passes combined, alpha, depth, the "hard" row with a grey World as a light (a 1x1
+        map, one sample a hit): the shading of an artist's first scene, most of it shadow rays.
 
 A build is a directory holding the unpacked wheel (`build/wheel` after `make wheel`; copy it
 aside before rebuilding the other). Each build is run from --copies fresh copies of it, taken in
@@ -18,7 +20,7 @@ turn: on this project's virtual machines the same bytes measured up to 6.5 % apa
 to another (the file `make wheel` wrote against a copy of it; two copies 2 % apart, every round,
 either order), which is where the copy's pages happen to lie in memory, not the build.
 
-    python bench/bench_ab.py OLD/wheel NEW/wheel [--scene peer|all|NAME] [--rounds 6] [--threads 1] [--copies 3]
+    python bench/bench_ab.py OLD/wheel NEW/wheel [--scene peer|all|world|NAME] [--rounds 6] [--threads 1] [--copies 3]
         [--simd auto|avx512|avx2|portable]
 """
 from __future__ import annotations
@@ -42,15 +44,18 @@ W, H = (1280, 1024) if scene == "peer" else (640, 512)
 cam = dict(matrix=uc.look_at((-2.0, -2.0, 1.0), (0, 0, 0), (0, 0, 1)),
            projection=uc.perspective(2 * math.atan(0.5), W / H, 0.1, 100.0), width=W, height=H)
 obj = dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=16, bailout=4.0)
-names, shading = ("combined", "alpha", "depth"), {}
-if scene != "peer":
+names, shading, world = ("combined", "alpha", "depth"), {}, None
+if scene == "world":  # an artist's first scene: a grey World as a light, and a hard-shadowed sun
+    _, _, over, shading = [c for c in fx.CASES if c[0] == "hard"][0]
+    world = np.full((1, 1, 3), 0.5, np.float32)
+elif scene != "peer":
     _, _, over, shading = [c for c in fx.CASES if c[0] == scene][0]
     obj = dict(obj, **over)
     names = uc.PASSES if scene == "all" else names
 p = {n: np.zeros((H, W, uc.PASS_CHANNELS[n]), np.float32) for n in names}
-uc.render(cam, [obj], p, shading=shading, threads=threads, simd=simd)
+uc.render(cam, [obj], p, shading=shading, threads=threads, simd=simd, world=world)
 c0 = time.process_time()
-uc.render(cam, [obj], p, shading=shading, threads=threads, simd=simd)
+uc.render(cam, [obj], p, shading=shading, threads=threads, simd=simd, world=world)
 c = time.process_time() - c0
 print(c, hashlib.sha256(b"".join(p[n].tobytes() for n in sorted(p))).hexdigest()[:16])
 '''
