@@ -644,214 +644,142 @@ static void lane_bsdf_eval(const ub_surface *sf, const ub_packet_rays *pr, int l
 
 /* Direct light at the hits of one bounce: the axle light and the scene's lights, Lambertian
  * (albedo / pi per unit of irradiance; the axle light is in units of the paper's shading,
- * albedo * cos), with shadow rays toward each light. Its state from light to light: the sums so
- * far, the next light, and that light's shadow rays. direct_light runs it whole;
- * lights_and_world_two pauses it at the light whose shadow rays go with the world's, to march
- * two packets' pairs in one loop. */
-typedef struct {
-    int bounce, lanes;
-    const ub_packet_rays *pr;
-    const ub_trace_result *tr;
-    const ub_surface *sf;
-    float (*direct)[UB_LANES];
-    float lit[UB_LANES], unshadowed[UB_LANES];
-    int next;
-    /* The shadow rays toward light next - 1 from the hits `cand`, its irradiance E there (times
-     * cosv: the cosine, or 1 where E holds a material's BSDF) and its apparent size. */
-    ub_packet_rays sr;
-    double E[3][UB_LANES], cosv[UB_LANES];
-    float tan_angle[UB_LANES];
-    int cand;
-    ub_trace_result st;
-} ub_direct;
-
-/* The axle light, and the state before the first of the scene's lights. */
-static void direct_begin(const ub_scene *sc, int bounce, int lanes, const ub_packet_rays *pr,
-                         const ub_trace_result *tr, const ub_surface *sf, float direct[3][UB_LANES], ub_direct *dl)
-{
-    const ub_shading *sh = sc->shading;
-    const ub_camera *cam = sc->camera;
-    /* (Field by field: the rest, over 3 KB of rays and hits, is written before it is read.) */
-    dl->bounce = bounce;
-    dl->lanes = lanes;
-    dl->pr = pr;
-    dl->tr = tr;
-    dl->sf = sf;
-    dl->direct = direct;
-    dl->next = 0;
-    for (int l = 0; l < UB_LANES; l++) {
-        dl->lit[l] = dl->unshadowed[l] = 0.0f;
-        for (int i = 0; i < 3; i++)
-            direct[i][l] = 0.0f;
-    }
-    if (sh->axle_light == 0.0f)
-        return;
-    for (int l = 0; l < UB_LANES; l++) {
-        if (!((lanes >> l) & 1))
-            continue;
-        double toward[3];
-        if (bounce == 0 || cam->orthographic) {
-            for (int i = 0; i < 3; i++)
-                toward[i] = bounce == 0 ? -pr->dir[i][l] : -cam->forward[i];
-        } else {
-            double len = 0.0;
-            for (int i = 0; i < 3; i++) {
-                toward[i] = cam->position[i] - sf->p[i][l];
-                len += toward[i] * toward[i];
-            }
-            len = sqrt(len);
-            for (int i = 0; i < 3; i++)
-                toward[i] = len > 0.0 ? toward[i] / len : 0.0;
-        }
-        double c = sf->n[0][l] * toward[0] + sf->n[1][l] * toward[1] + sf->n[2][l] * toward[2];
-        if ((sf->bsdf_lanes >> l) & 1) {
-            /* In the paper's units: pi times the BSDF, which is albedo * cos for Lambert. */
-            double f[3];
-            lane_bsdf_eval(sf, pr, l, toward, f);
-            for (int i = 0; i < 3; i++)
-                direct[i][l] += (float)(sh->axle_light * M_PI * f[i]);
-        } else if (c > 0.0) {
-            for (int i = 0; i < 3; i++)
-                direct[i][l] += (float)(sh->axle_light * c);
-        }
-    }
-}
-
-/* Light L's shadow rays from the hits it lights (dl->cand; 0: none), untraced. */
-static void light_rays(const ub_scene *sc, const ub_light *L, ub_direct *dl)
-{
-    const ub_shading *sh = sc->shading;
-    const ub_surface *sf = dl->sf;
-    const ub_packet_rays *pr = dl->pr;
-    ub_packet_rays *sr = &dl->sr;
-    dl->cand = 0;
-    for (int l = 0; l < UB_LANES; l++) {
-        sr->t_base[l] = 0.0f;
-        sr->t_min[l] = 0.0;
-        sr->t_max[l] = 0.0;
-        dl->tan_angle[l] = 0.0f;
-        for (int i = 0; i < 3; i++)
-            sr->origin[i][l] = sr->dir[i][l] = 0.0;
-        sr->dir[2][l] = 1.0;
-        if (!((dl->lanes >> l) & 1))
-            continue;
-        double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, d[3], dist, e[3], ta;
-        if (!light_sample(L, p, d, &dist, e, &ta))
-            continue;
-        double c = sf->n[0][l] * d[0] + sf->n[1][l] * d[1] + sf->n[2][l] * d[2];
-        if (!(c > 0.0))
-            continue;
-        /* The sea is opaque: a light below it does not reach a point above it. */
-        if (sh->sea && p[2] > sh->sea_height + sf->bias[l]
-            && (dist == HUGE_VAL ? d[2] < 0.0 : p[2] + dist * d[2] < sh->sea_height))
-            continue;
-        dl->cand |= 1 << l;
-        dl->cosv[l] = c;
-        for (int i = 0; i < 3; i++)
-            dl->E[i][l] = e[i] * M_1_PI;
-        if ((sf->bsdf_lanes >> l) & 1) {
-            /* The material's BSDF (its cosine included) instead of Lambert's albedo / pi. */
-            double f[3];
-            lane_bsdf_eval(sf, pr, l, d, f);
-            dl->cosv[l] = 1.0;
-            for (int i = 0; i < 3; i++)
-                dl->E[i][l] = e[i] * f[i];
-        }
-        for (int i = 0; i < 3; i++) {
-            sr->origin[i][l] = p[i] + sf->bias[l] * sf->n[i][l];
-            sr->dir[i][l] = d[i];
-        }
-        sr->t_min[l] = sf->bias[l];
-        sr->t_max[l] = dist == HUGE_VAL ? 1e30 : dist;
-        sr->t_base[l] = pr->t_base[l] + dl->tr->t[l];
-        dl->tan_angle[l] = (float)ta;
-    }
-}
-
-/* Light L's light at dl's candidates into the sums, through what its shadow rays hit (dl->st)
- * where they were traced (`traced`). */
-static void light_add(const ub_scene *sc, int traced, ub_direct *dl, ub_counters *cnt)
-{
-    const int soft = sc->shading->shadows == UB_SHADOWS_SOFT, cand = dl->cand;
-    float vis[UB_LANES];
-    for (int l = 0; l < UB_LANES; l++)
-        vis[l] = 1.0f;
-    if (traced)
-        for (int l = 0; l < UB_LANES; l++) {
-            if (!((cand >> l) & 1))
-                continue;
-            cnt->steps += (uint64_t)dl->st.steps[l];
-            if (dl->st.object[l] != UB_HIT_NONE)
-                vis[l] = 0.0f;
-            else if (soft && dl->tan_angle[l] > 0.0f)
-                vis[l] = dl->st.penumbra[l] * dl->st.penumbra[l] * (3.0f - 2.0f * dl->st.penumbra[l]);
-        }
-    for (int l = 0; l < UB_LANES; l++) {
-        if (!((cand >> l) & 1))
-            continue;
-        float sum = 0.0f;
-        for (int i = 0; i < 3; i++) {
-            float e = (float)(dl->E[i][l] * dl->cosv[l]);
-            dl->direct[i][l] += e * vis[l];
-            sum += e;
-        }
-        dl->unshadowed[l] += sum;
-        dl->lit[l] += sum * vis[l];
-    }
-}
-
-/* The scene's lights from dl->next on, each traced and added. With `world` (a packet of the
- * world's shadow rays, or NULL), stops at the first light whose shadows are hard where the kernel
- * pairs packets: returns 1 with its rays in dl->sr, for the caller to march with the world's
- * and then light_add (direct_light). Else returns 0 when every light is added. */
-static int direct_lights(const ub_scene *sc, const ub_de_params *dps, ub_direct *dl, const ub_world_rays *world,
-                         ub_counters *cnt)
-{
-    const ub_shading *sh = sc->shading;
-    const int soft = sh->shadows == UB_SHADOWS_SOFT;
-    while (dl->next < sh->light_count && !cancelled(sc)) {
-        const ub_light *L = &sh->lights[dl->next++];
-        light_rays(sc, L, dl);
-        if (!dl->cand)
-            continue;
-        const int traced = sh->shadows != UB_SHADOWS_NONE && L->cast_shadow;
-        if (traced) {
-            if (world && world->cand && !soft && pair_traceable(sc, dps))
-                return 1;
-            trace(sc, dps, &dl->sr, dl->cand, UB_TRACE_ANY_HIT, soft ? dl->tan_angle : NULL, &dl->st, cnt);
-        }
-        light_add(sc, traced, dl, cnt);
-    }
-    return 0;
-}
-
-/* The Shadow pass's value: the lights' light that reached the hits, of what would have unshadowed. */
-static void direct_end(const ub_direct *dl, float shadow[UB_LANES])
-{
-    for (int l = 0; l < UB_LANES; l++)
-        shadow[l] = dl->unshadowed[l] > 0.0f ? dl->lit[l] / dl->unshadowed[l] : 1.0f;
-}
-
-/* Direct light at the hits of one bounce (ub_direct). `world` (or NULL): a packet of the world's
+ * albedo * cos), with shadow rays toward each light. `world` (or NULL): a packet of the world's
  * shadow rays, marched with the first light whose shadows are hard where the kernel pairs
  * packets (world->traced then says so, and world->st holds what they hit). */
 static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce, int lanes,
-                         const ub_packet_rays *pr, const ub_trace_result *tr, const ub_surface *sf,
-                         ub_world_rays *world, float direct[3][UB_LANES], float shadow[UB_LANES], ub_counters *cnt)
+                                const ub_packet_rays *pr, const ub_trace_result *tr,
+                                const ub_surface *sf, ub_world_rays *world, float direct[3][UB_LANES],
+                                float shadow[UB_LANES], ub_counters *cnt)
 {
-    ub_direct dl;
-    direct_begin(sc, bounce, lanes, pr, tr, sf, direct, &dl);
-    if (direct_lights(sc, dps, &dl, world, cnt)) {
-        /* The world's packet of shadow rays with this light's, in one loop (trace_pair). */
-        const ub_packet_rays *const both[2] = {&dl.sr, &world->sr};
-        const int both_lanes[2] = {dl.cand, world->cand};
-        ub_trace_result *const both_st[2] = {&dl.st, &world->st};
-        trace_pair(sc, dps, both, both_lanes, UB_TRACE_ANY_HIT, both_st, cnt);
-        world->traced = 1;
-        light_add(sc, 1, &dl, cnt);
-        direct_lights(sc, dps, &dl, NULL, cnt);
+    const ub_shading *sh = sc->shading;
+    const ub_camera *cam = sc->camera;
+    float lit[UB_LANES] = {0}, unshadowed[UB_LANES] = {0};
+    for (int l = 0; l < UB_LANES; l++)
+        for (int i = 0; i < 3; i++)
+            direct[i][l] = 0.0f;
+    if (sh->axle_light != 0.0f) {
+        for (int l = 0; l < UB_LANES; l++) {
+            if (!((lanes >> l) & 1))
+                continue;
+            double toward[3];
+            if (bounce == 0 || cam->orthographic) {
+                for (int i = 0; i < 3; i++)
+                    toward[i] = bounce == 0 ? -pr->dir[i][l] : -cam->forward[i];
+            } else {
+                double len = 0.0;
+                for (int i = 0; i < 3; i++) {
+                    toward[i] = cam->position[i] - sf->p[i][l];
+                    len += toward[i] * toward[i];
+                }
+                len = sqrt(len);
+                for (int i = 0; i < 3; i++)
+                    toward[i] = len > 0.0 ? toward[i] / len : 0.0;
+            }
+            double c = sf->n[0][l] * toward[0] + sf->n[1][l] * toward[1] + sf->n[2][l] * toward[2];
+            if ((sf->bsdf_lanes >> l) & 1) {
+                /* In the paper's units: pi times the BSDF, which is albedo * cos for Lambert. */
+                double f[3];
+                lane_bsdf_eval(sf, pr, l, toward, f);
+                for (int i = 0; i < 3; i++)
+                    direct[i][l] += (float)(sh->axle_light * M_PI * f[i]);
+            } else if (c > 0.0) {
+                for (int i = 0; i < 3; i++)
+                    direct[i][l] += (float)(sh->axle_light * c);
+            }
+        }
     }
-    direct_end(&dl, shadow);
+    for (int j = 0; j < sh->light_count && !cancelled(sc); j++) {
+        const ub_light *L = &sh->lights[j];
+        double E[3][UB_LANES], cosv[UB_LANES];
+        int cand = 0;
+        ub_packet_rays sr;
+        float tan_angle[UB_LANES];
+        for (int l = 0; l < UB_LANES; l++) {
+            sr.t_base[l] = 0.0f;
+            sr.t_min[l] = 0.0;
+            sr.t_max[l] = 0.0;
+            tan_angle[l] = 0.0f;
+            for (int i = 0; i < 3; i++)
+                sr.origin[i][l] = sr.dir[i][l] = 0.0;
+            sr.dir[2][l] = 1.0;
+            if (!((lanes >> l) & 1))
+                continue;
+            double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, dl[3], dist, e[3], ta;
+            if (!light_sample(L, p, dl, &dist, e, &ta))
+                continue;
+            double c = sf->n[0][l] * dl[0] + sf->n[1][l] * dl[1] + sf->n[2][l] * dl[2];
+            if (!(c > 0.0))
+                continue;
+            /* The sea is opaque: a light below it does not reach a point above it. */
+            if (sh->sea && p[2] > sh->sea_height + sf->bias[l]
+                && (dist == HUGE_VAL ? dl[2] < 0.0 : p[2] + dist * dl[2] < sh->sea_height))
+                continue;
+            cand |= 1 << l;
+            cosv[l] = c;
+            for (int i = 0; i < 3; i++)
+                E[i][l] = e[i] * M_1_PI;
+            if ((sf->bsdf_lanes >> l) & 1) {
+                /* The material's BSDF (its cosine included) instead of Lambert's albedo / pi. */
+                double f[3];
+                lane_bsdf_eval(sf, pr, l, dl, f);
+                cosv[l] = 1.0;
+                for (int i = 0; i < 3; i++)
+                    E[i][l] = e[i] * f[i];
+            }
+            for (int i = 0; i < 3; i++) {
+                sr.origin[i][l] = p[i] + sf->bias[l] * sf->n[i][l];
+                sr.dir[i][l] = dl[i];
+            }
+            sr.t_min[l] = sf->bias[l];
+            sr.t_max[l] = dist == HUGE_VAL ? 1e30 : dist;
+            sr.t_base[l] = pr->t_base[l] + tr->t[l];
+            tan_angle[l] = (float)ta;
+        }
+        if (!cand)
+            continue;
+        float vis[UB_LANES];
+        for (int l = 0; l < UB_LANES; l++)
+            vis[l] = 1.0f;
+        if (sh->shadows != UB_SHADOWS_NONE && L->cast_shadow) {
+            ub_trace_result st;
+            int soft = sh->shadows == UB_SHADOWS_SOFT;
+            if (world && world->cand && !soft && pair_traceable(sc, dps)) {
+                /* The world's packet of shadow rays with this light's, in one loop (trace_pair). */
+                const ub_packet_rays *const both[2] = {&sr, &world->sr};
+                const int both_lanes[2] = {cand, world->cand};
+                ub_trace_result *const both_st[2] = {&st, &world->st};
+                trace_pair(sc, dps, both, both_lanes, UB_TRACE_ANY_HIT, both_st, cnt);
+                world->traced = 1;
+                world = NULL;
+            } else {
+                trace(sc, dps, &sr, cand, UB_TRACE_ANY_HIT, soft ? tan_angle : NULL, &st, cnt);
+            }
+            for (int l = 0; l < UB_LANES; l++) {
+                if (!((cand >> l) & 1))
+                    continue;
+                cnt->steps += (uint64_t)st.steps[l];
+                if (st.object[l] != UB_HIT_NONE)
+                    vis[l] = 0.0f;
+                else if (soft && tan_angle[l] > 0.0f)
+                    vis[l] = st.penumbra[l] * st.penumbra[l] * (3.0f - 2.0f * st.penumbra[l]);
+            }
+        }
+        for (int l = 0; l < UB_LANES; l++) {
+            if (!((cand >> l) & 1))
+                continue;
+            float sum = 0.0f;
+            for (int i = 0; i < 3; i++) {
+                float e = (float)(E[i][l] * cosv[l]);
+                direct[i][l] += e * vis[l];
+                sum += e;
+            }
+            unshadowed[l] += sum;
+            lit[l] += sum * vis[l];
+        }
+    }
+    for (int l = 0; l < UB_LANES; l++)
+        shadow[l] = unshadowed[l] > 0.0f ? lit[l] / unshadowed[l] : 1.0f;
 }
 
 /* The lights' and the world's direct light at the hits of one bounce (direct_light, world_light).
@@ -1519,203 +1447,50 @@ typedef struct {
     int sample, want_trap, use_ao;
 } ub_tile_shading;
 
-/* One packet's shading between the phases of a bounce (shade_bounces): its pixels, rays, hits
- * and paths, the lanes whose paths go on, and the bounce's hits, surfaces and light. */
-typedef struct {
-    const ub_lane_pixels *pix;
-    int fx, fy; /* the hit-buffer pixel of lane 0 (shade_paths) */
-    ub_packet_rays *pr;
-    ub_trace_result *tr;
-    ub_paths *ps;
-    int alive, hit_lanes;
-    ub_surface sf;
-    gi_plan plan;
-    float direct[3][UB_LANES], shadow[UB_LANES];
-} ub_shade_packet;
-
-/* lights_and_world of the first bounce of two packets (two blocks of a chunk, shade_two_blocks)
- * that both hit something. Where each pairs a light's shadow rays with the world's, the two pairs
- * are marched as two interleaved pairs (trace_two_pairs: each pair's step tail beside the other's
- * loop; issue 21), and where no light took the world's rays along, the two packets of them are
- * one pair. Each packet's sums in the same order as lights_and_world's: the same bits. */
-static void lights_and_world_two(const ub_tile_shading *ts, ub_shade_packet k[2], ub_counters *cnt)
-{
-    const ub_scene *sc = ts->sc;
-    const ub_de_params *dps = ts->dps;
-    if (sc->shading->gi || !world_single_packet(sc, NULL) || !pair_traceable(sc, dps)) {
-        for (int j = 0; j < 2; j++)
-            lights_and_world(sc, dps, &ts->sp, k[j].pix, 0, k[j].hit_lanes, k[j].pr, k[j].tr, &k[j].sf,
-                             sc->shading->gi ? k[j].plan.bd : NULL, k[j].direct, k[j].shadow, cnt);
-        return;
-    }
-    ub_world_rays wr[2];
-    ub_direct dl[2];
-    int paused[2];
-    for (int j = 0; j < 2; j++) {
-        world_sample_rays(sc, &ts->sp, k[j].pix, 0, k[j].hit_lanes, k[j].pr, k[j].tr, &k[j].sf, NULL, 0, 1, &wr[j]);
-        direct_begin(sc, 0, k[j].hit_lanes, k[j].pr, k[j].tr, &k[j].sf, k[j].direct, &dl[j]);
-        paused[j] = direct_lights(sc, dps, &dl[j], &wr[j], cnt);
-    }
-    /* Each paused packet's light rays with its world rays (direct_light's pair). */
-    const ub_packet_rays *rays[4];
-    int lanes[4], n = 0;
-    ub_trace_result *hits[4];
-    for (int j = 0; j < 2; j++)
-        if (paused[j]) {
-            rays[n] = &dl[j].sr, lanes[n] = dl[j].cand, hits[n++] = &dl[j].st;
-            rays[n] = &wr[j].sr, lanes[n] = wr[j].cand, hits[n++] = &wr[j].st;
-            wr[j].traced = 1;
-        }
-    if (n == 4)
-        trace_two_pairs(sc, dps, rays, lanes, UB_TRACE_ANY_HIT, hits, cnt);
-    else if (n == 2)
-        trace_pair(sc, dps, rays, lanes, UB_TRACE_ANY_HIT, hits, cnt);
-    for (int j = 0; j < 2; j++) {
-        if (paused[j]) {
-            light_add(sc, 1, &dl[j], cnt);
-            direct_lights(sc, dps, &dl[j], NULL, cnt);
-        }
-        direct_end(&dl[j], k[j].shadow);
-    }
-    /* The world's rays that no light took along (lights_and_world's), a pair where both are. */
-    n = 0;
-    for (int j = 0; j < 2; j++)
-        if (wr[j].cand && !wr[j].traced) {
-            rays[n] = &wr[j].sr, lanes[n] = wr[j].cand, hits[n++] = &wr[j].st;
-            wr[j].traced = 1;
-        }
-    if (n == 2)
-        trace_pair(sc, dps, rays, lanes, UB_TRACE_ANY_HIT, hits, cnt);
-    else if (n == 1)
-        trace(sc, dps, rays[0], lanes[0], UB_TRACE_ANY_HIT, NULL, hits[0], cnt);
-    for (int j = 0; j < 2; j++)
-        if (wr[j].cand)
-            world_sample_add(sc, &wr[j], &wr[j].st, k[j].direct, cnt);
-}
-
-/* The first half of a bounce of packet k's paths: the world where its rays missed, the surfaces
- * where they hit (k->hit_lanes) and, with global illumination, the next bounce's plan. Returns
- * -1 when the render was cancelled, 0 when nothing was hit (the paths end), else 1. */
-static int bounce_surfaces(const ub_tile_shading *ts, int bounce, ub_shade_packet *k, ub_counters *cnt)
-{
-    const ub_scene *sc = ts->sc;
-    const ub_shading *sh = sc->shading;
-    k->hit_lanes = add_background(sc, bounce, k->alive, k->pr, k->tr, k->ps);
-    if (!k->hit_lanes)
-        return 0;
-    surface(sc, ts->dps, &ts->sp, bounce, k->fx, k->fy, k->pr, k->tr, k->hit_lanes, ts->want_trap && bounce == 0,
-            &k->sf, cnt);
-    if (cancelled(sc))
-        return -1;
-    if (sh->gi)
-        gi_plan_bounces(sh, &ts->sp, k->pix, bounce, k->hit_lanes, k->pr, &k->sf, k->ps, &k->plan);
-    return 1;
-}
-
-/* The second half, after the light (k->direct, k->shadow): ambient occlusion and the surfaces'
- * light into the paths, which leaves k->alive the lanes that bounce on. Returns 0 when the render
- * was cancelled. */
-static int bounce_finish(const ub_tile_shading *ts, int bounce, ub_shade_packet *k)
-{
-    const ub_scene *sc = ts->sc;
-    float ao[UB_LANES];
-    if (ts->use_ao)
-        ambient_occlusion(sc, ts->dps, k->hit_lanes, k->sf.p, k->sf.n, ao);
-    else
-        for (int l = 0; l < UB_LANES; l++)
-            ao[l] = 1.0f;
-    if (cancelled(sc))
-        return 0;
-    k->alive = add_surface_light(sc, bounce, k->hit_lanes, &k->sf, k->direct, k->shadow, ao, k->tr,
-                                 sc->shading->gi ? &k->plan : NULL, k->pr, k->ps);
-    return 1;
-}
-
-/* Packet k's paths from bounce `bounce` on (its rays and hits in k->pr and k->tr; each later
- * bounce traced here). Returns 0 when the render was cancelled. */
-static int shade_bounces(const ub_tile_shading *ts, int bounce, ub_shade_packet *k, ub_counters *cnt)
-{
-    const ub_scene *sc = ts->sc;
-    const ub_shading *sh = sc->shading;
-    for (; k->alive; bounce++) {
-        if (bounce > 0) {
-            trace(sc, ts->dps, k->pr, k->alive, sh->sea ? UB_TRACE_SEA : 0, NULL, k->tr, cnt);
-            for (int l = 0; l < UB_LANES; l++)
-                if ((k->alive >> l) & 1)
-                    cnt->steps += (uint64_t)k->tr->steps[l];
-            if (cancelled(sc))
-                return 0;
-        }
-        const int found = bounce_surfaces(ts, bounce, k, cnt);
-        if (found <= 0)
-            return found == 0;
-        lights_and_world(sc, ts->dps, &ts->sp, k->pix, bounce, k->hit_lanes, k->pr, k->tr, &k->sf,
-                         sh->gi ? k->plan.bd : NULL, k->direct, k->shadow, cnt);
-        if (!bounce_finish(ts, bounce, k))
-            return 0;
-    }
-    return 1;
-}
-
-/* Packet k, before its first bounce: lanes `lanes` (pixels pix) of camera rays pr with hits tr
- * (both reused for the later bounces), of which `seen` see the scene; its paths go into ps.
- * (fx, fy): the hit-buffer pixel of lane 0 of a row's packet, which only the Z-buffer normals
- * read (in the two-phase render, whose packets are rows). */
-static void shade_start(ub_shade_packet *k, const ub_lane_pixels *pix, int fx, int fy, int lanes, int seen,
-                        ub_packet_rays *pr, ub_trace_result *tr, ub_paths *ps)
-{
-    k->pix = pix;
-    k->fx = fx;
-    k->fy = fy;
-    k->pr = pr;
-    k->tr = tr;
-    k->ps = ps;
-    start_paths(tr, ps);
-    k->alive = lanes & seen;
-    ps->unseen = ~seen;
-}
-
-/* One packet's paths, bounce by bounce, into ps (shade_start's arguments). Returns 0 when the
- * render was cancelled. */
+/* One packet's paths, bounce by bounce, into ps: lanes `lanes` (pixels pix) from their camera rays
+ * pr and hits tr (both reused for the later bounces), of which `seen` see the scene. (fx, fy):
+ * the hit-buffer pixel of lane 0 of a row's packet, which only the Z-buffer normals read (in the
+ * two-phase render, whose packets are rows). Returns 0 when the render was cancelled. */
 static int shade_paths(const ub_tile_shading *ts, const ub_lane_pixels *pix, int fx, int fy, int lanes, int seen,
                        ub_packet_rays *pr, ub_trace_result *tr, ub_paths *ps, ub_counters *cnt)
 {
-    ub_shade_packet k;
-    shade_start(&k, pix, fx, fy, lanes, seen, pr, tr, ps);
-    return shade_bounces(ts, 0, &k, cnt);
-}
-
-/* shade_bounces of two started packets: their first bounces side by side, so that their shadow
- * rays can be marched together (lights_and_world_two), then each one's later bounces. Each
- * packet's paths are shade_paths' own. Returns 0 when the render was cancelled. */
-static int shade_two_packets(const ub_tile_shading *ts, ub_shade_packet k[2], ub_counters *cnt)
-{
-    int hit = 0;
-    for (int j = 0; j < 2; j++) {
-        if (!k[j].alive)
-            continue;
-        const int found = bounce_surfaces(ts, 0, &k[j], cnt);
-        if (found < 0)
+    const ub_scene *sc = ts->sc;
+    const ub_de_params *dps = ts->dps;
+    const ub_shading *sh = sc->shading;
+    start_paths(tr, ps);
+    int alive = lanes & seen;
+    ps->unseen = ~seen;
+    for (int bounce = 0; alive; bounce++) {
+        if (bounce > 0) {
+            trace(sc, dps, pr, alive, sh->sea ? UB_TRACE_SEA : 0, NULL, tr, cnt);
+            for (int l = 0; l < UB_LANES; l++)
+                if ((alive >> l) & 1)
+                    cnt->steps += (uint64_t)tr->steps[l];
+            if (cancelled(sc))
+                return 0;
+        }
+        int hit_lanes = add_background(sc, bounce, alive, pr, tr, ps);
+        if (!hit_lanes)
+            break;
+        ub_surface sf;
+        surface(sc, dps, &ts->sp, bounce, fx, fy, pr, tr, hit_lanes, ts->want_trap && bounce == 0, &sf, cnt);
+        if (cancelled(sc))
             return 0;
-        if (found)
-            hit |= 1 << j;
+        float direct[3][UB_LANES], shadow[UB_LANES], ao[UB_LANES];
+        gi_plan plan;
+        if (sh->gi)
+            gi_plan_bounces(sh, &ts->sp, pix, bounce, hit_lanes, pr, &sf, ps, &plan);
+        lights_and_world(sc, dps, &ts->sp, pix, bounce, hit_lanes, pr, tr, &sf, sh->gi ? plan.bd : NULL, direct,
+                         shadow, cnt);
+        if (ts->use_ao)
+            ambient_occlusion(sc, dps, hit_lanes, sf.p, sf.n, ao);
         else
-            k[j].alive = 0; /* nothing hit: the paths end */
-    }
-    if (hit == 3) {
-        lights_and_world_two(ts, k, cnt);
-    } else {
-        for (int j = 0; j < 2; j++)
-            if ((hit >> j) & 1)
-                lights_and_world(ts->sc, ts->dps, &ts->sp, k[j].pix, 0, k[j].hit_lanes, k[j].pr, k[j].tr, &k[j].sf,
-                                 ts->sc->shading->gi ? k[j].plan.bd : NULL, k[j].direct, k[j].shadow, cnt);
-    }
-    for (int j = 0; j < 2; j++)
-        if (((hit >> j) & 1) && !bounce_finish(ts, 0, &k[j]))
+            for (int l = 0; l < UB_LANES; l++)
+                ao[l] = 1.0f;
+        if (cancelled(sc))
             return 0;
-    for (int j = 0; j < 2; j++)
-        if (!shade_bounces(ts, 1, &k[j], cnt))
-            return 0;
+        alive = add_surface_light(sc, bounce, hit_lanes, &sf, direct, shadow, ao, tr, sh->gi ? &plan : NULL, pr, ps);
+    }
     return 1;
 }
 
@@ -1736,29 +1511,18 @@ static int shade_chunk(const ub_tile_shading *ts, int x, int y, ub_chunk *ch, ub
     for (int r = 0; r < UB_BLOCK_H; r++)
         for (int j = 0; j < 2; j++)
             rows[r][j].unseen = 0;
-    /* The blocks two at a time (shade_two_packets: their shadow rays marched together). */
-    int blocks[UB_CHUNK_BLOCKS], count = 0;
-    for (int b = 0; b < UB_CHUNK_BLOCKS; b++)
-        if (ch->valid[b])
-            blocks[count++] = b;
-    for (int i = 0; i < count; i += 2) {
-        const int m = count - i < 2 ? 1 : 2;
-        ub_lane_pixels pix[2];
-        ub_paths ps[2];
-        ub_shade_packet k[2];
-        for (int q = 0; q < m; q++) {
-            const int b = blocks[i + q];
-            block_pixels(ts->sc->film, x, y, b, &pix[q]);
-            shade_start(&k[q], &pix[q], x, y, ch->valid[b], ch->block_seen[b], &ch->bp[b], &ch->bt[b], &ps[q]);
-        }
-        if (!(m == 2 ? shade_two_packets(ts, k, cnt) : shade_bounces(ts, 0, &k[0], cnt)))
+    for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
+        if (!ch->valid[b])
+            continue;
+        ub_lane_pixels pix;
+        block_pixels(ts->sc->film, x, y, b, &pix);
+        ub_paths ps;
+        if (!shade_paths(ts, &pix, x, y, ch->valid[b], ch->block_seen[b], &ch->bp[b], &ch->bt[b], &ps, cnt))
             return 0;
-        for (int q = 0; q < m; q++) {
-            const int b = blocks[i + q], j = chunk_packet(b), c0 = chunk_lane(b);
-            for (int r = 0; r < UB_BLOCK_H; r++)
-                if (chunk_has_rays(ch, r, j))
-                    paths_copy_lanes(&rows[r][j], c0, &ps[q], r * UB_BLOCK_W, UB_BLOCK_W);
-        }
+        const int j = chunk_packet(b), c0 = chunk_lane(b);
+        for (int r = 0; r < UB_BLOCK_H; r++)
+            if (chunk_has_rays(ch, r, j))
+                paths_copy_lanes(&rows[r][j], c0, &ps, r * UB_BLOCK_W, UB_BLOCK_W);
     }
     /* Padding lanes repeat the last pixel's paths, as a row's packet has them. */
     for (int r = 0; r < UB_BLOCK_H; r++)
