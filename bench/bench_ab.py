@@ -46,7 +46,7 @@ cam = dict(matrix=uc.look_at((-2.0, -2.0, 1.0), (0, 0, 0), (0, 0, 1)),
 obj = dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=16, bailout=4.0)
 names, shading, world = ("combined", "alpha", "depth"), {}, None
 if scene == "world":  # an artist's first scene: a grey World as a light, and a hard-shadowed sun
-    _, _, over, shading = [c for c in fx.CASES if c[0] == "hard"][0]
+    shading = [c for c in fx.CASES if c[0] == "hard"][0][3]
     world = np.full((1, 1, 3), 0.5, np.float32)
 elif scene != "peer":
     _, _, over, shading = [c for c in fx.CASES if c[0] == scene][0]

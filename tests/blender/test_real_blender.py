@@ -418,10 +418,11 @@ def test_gui_convert_to_mesh_esc_cancels_and_completes_like_a_script(user_dir):
     Enter, simulated through Blender's event queue) on the default Julia set:
     * at resolution 1024, Esc one second in: the operator ends within 1 s of the Esc (the core
       stops within 100 ms; the rest is Blender's event loop and the 50 ms timer), nothing is
-      made (objects, meshes, materials and the frame as before), and the status bar's text, shown during the conversion, is Blender's own again;
+      made (objects, meshes, materials and the frame as before), and the status bar's text, shown during the conversion, is Blender's own again within 2 s;
     * at a low resolution without Esc: it completes, and the new active mesh is the one a
       script's EXEC_DEFAULT makes, bit for bit (positions, triangles, trap)."""
-    names = ["convert_status_before.png", "convert_status_during.png", "convert_status_after.png"]
+    afters = ["convert_status_after.png"] + ["convert_status_after_%d.png" % k for k in (1, 2, 3)]
+    names = ["convert_status_before.png", "convert_status_during.png"] + afters
     log, out = run_gui(user_dir, "gui_convert_modal.py", names, timeout=240,
                        blender_args=("--enable-event-simulate",), with_output=True)
     steps = {e["step"]: e for e in log if "step" in e}
@@ -431,9 +432,11 @@ def test_gui_convert_to_mesh_esc_cancels_and_completes_like_a_script(user_dir):
     assert c["invoke_op"] == ["RUNNING_MODAL"] and c["was_running"], c
     assert c["after"] == c["before"], c
     assert c["esc_to_end"] <= 1.0, c
-    before, during, after = (status_bar_left(n) for n in names)
+    before, during = (status_bar_left(n) for n in names[:2])
     assert (np.abs(during - before).max(-1) > 30).mean() > 0.01, "no status text during the conversion"
-    assert np.array_equal(after, before), "the status bar did not get its own text back"
+    # Within 2 s of the end (shots 0.5 s apart: a loaded machine may redraw the bar late).
+    assert any(np.array_equal(status_bar_left(n), before) for n in afters), \
+        "the status bar did not get its own text back"
     done = steps["complete"]
     assert done["exec_op"] == ["FINISHED"], done
     modal, script = done["modal"], done["exec"]
