@@ -101,8 +101,8 @@ def setup():
     after(1.0, cancel_run)
 
 
-AFTER_SHOTS = ["convert_status_after.png", "convert_status_after_1.png", "convert_status_after_2.png",
-               "convert_status_after_3.png"]
+# The status bar after a cancel, 0.5 s apart (test_real_blender.py names the same files).
+AFTER_SHOTS = ["convert_status_after.png"] + ["convert_status_after_%d.png" % k for k in (1, 2, 3)]
 
 
 def cancel_run():
