@@ -173,8 +173,8 @@ static inline int ub_detect_avx2_fma(void)
 #endif
 }
 
-/* AVX-512F usable: the CPU has it and the OS saves the opmask and ZMM registers (XCR0 bits 5-7
- * beside XMM and YMM). */
+/* The AVX-512 kernel usable: the CPU has AVX-512 F, CD, BW, DQ and VL (kernel_avx512.c is compiled
+ * for them) and the OS saves the opmask and ZMM registers (XCR0 bits 5-7 beside XMM and YMM). */
 static inline int ub_detect_avx512(void)
 {
 #if defined(UB_X86_64)
@@ -186,7 +186,8 @@ static inline int ub_detect_avx512(void)
     if ((xcr0_lo & 0xe6u) != 0xe6u)
         return 0;
     __cpuid_count(7, 0, a, b, c, d);
-    return (b >> 16) & 1u; /* AVX512F */
+    const unsigned f = 1u << 16, dq = 1u << 17, cd = 1u << 28, bw = 1u << 30, vl = 1u << 31;
+    return (b & (f | dq | cd | bw | vl)) == (f | dq | cd | bw | vl);
 #else
     return 0;
 #endif

@@ -10,7 +10,7 @@
 /* The CPU's features, detected once: CPUID traps to the hypervisor in a virtual machine (about
  * 7 us each, five of them a detection), and every render call, an F12 band or a viewport sub-grid
  * among them, resolves its kernel (issue 21: 1.3 % of a 640x360 animation's F12s). Bit 0 AVX2 +
- * FMA, bit 1 AVX-512F; -1 not detected yet (threads that race both store the same value). */
+ * FMA, bit 1 AVX-512 (F, CD, BW, DQ, VL); -1 not detected yet (threads that race both store the same value). */
 static int cpu_features = -1;
 
 static int detected_features(void)
@@ -39,7 +39,7 @@ const char *ub_resolve_isa(ub_isa isa, ub_isa *kernel)
     switch (isa) {
     case UB_ISA_AVX512:
         *kernel = UB_ISA_AVX512;
-        return avx512 ? NULL : "simd='avx512' requested but this CPU lacks AVX-512F";
+        return avx512 ? NULL : "simd='avx512' requested but this CPU lacks AVX-512 (F, CD, BW, DQ and VL)";
     case UB_ISA_AVX2:
         *kernel = UB_ISA_AVX2;
         return avx2 ? NULL : "simd='avx2' requested but this CPU lacks AVX2/FMA";
