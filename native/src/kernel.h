@@ -642,6 +642,30 @@ static void lane_bsdf_eval(const ub_surface *sf, const ub_packet_rays *pr, int l
 
 #include "world.h"
 
+/* Unit directions toward the light at the eye from each lane's hit: back along the camera ray at
+ * the first bounce, against the view axis for an orthographic camera, else toward the camera's
+ * position. One loop per case, each without branches. */
+static void axle_directions(const ub_camera *cam, int bounce, const ub_packet_rays *pr, const ub_surface *sf,
+                            double toward[3][UB_LANES])
+{
+    if (bounce == 0 || cam->orthographic) {
+        for (int i = 0; i < 3; i++)
+            for (int l = 0; l < UB_LANES; l++)
+                toward[i][l] = bounce == 0 ? -pr->dir[i][l] : -cam->forward[i];
+        return;
+    }
+    for (int l = 0; l < UB_LANES; l++) {
+        double t[3], len = 0.0;
+        for (int i = 0; i < 3; i++) {
+            t[i] = cam->position[i] - sf->p[i][l];
+            len += t[i] * t[i];
+        }
+        len = sqrt(len);
+        for (int i = 0; i < 3; i++)
+            toward[i][l] = len > 0.0 ? t[i] / len : 0.0;
+    }
+}
+
 /* Direct light at the hits of one bounce: the axle light and the scene's lights, Lambertian
  * (albedo / pi per unit of irradiance; the axle light is in units of the paper's shading,
  * albedo * cos), with shadow rays toward each light. `world` (or NULL): a packet of the world's
@@ -659,34 +683,28 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
         for (int i = 0; i < 3; i++)
             direct[i][l] = 0.0f;
     if (sh->axle_light != 0.0f) {
+        /* The Lambertian lanes at once, as selects (a loop the compiler vectorises; issue 21: lane
+         * by lane with branches this was most of direct_light's time on the peer scene); the
+         * lanes with a material through their BSDF, one by one. */
+        double toward[3][UB_LANES];
+        axle_directions(cam, bounce, pr, sf, toward);
+        const int plain = lanes & ~sf->bsdf_lanes, material = lanes & sf->bsdf_lanes;
         for (int l = 0; l < UB_LANES; l++) {
-            if (!((lanes >> l) & 1))
+            const double c = sf->n[0][l] * toward[0][l] + sf->n[1][l] * toward[1][l] + sf->n[2][l] * toward[2][l];
+            const float light = (float)(sh->axle_light * c);
+            const int lit_lane = ((plain >> l) & 1) && c > 0.0;
+            for (int i = 0; i < 3; i++)
+                direct[i][l] = lit_lane ? direct[i][l] + light : direct[i][l];
+        }
+        for (int l = 0; material >> l; l++) {
+            if (!((material >> l) & 1))
                 continue;
-            double toward[3];
-            if (bounce == 0 || cam->orthographic) {
-                for (int i = 0; i < 3; i++)
-                    toward[i] = bounce == 0 ? -pr->dir[i][l] : -cam->forward[i];
-            } else {
-                double len = 0.0;
-                for (int i = 0; i < 3; i++) {
-                    toward[i] = cam->position[i] - sf->p[i][l];
-                    len += toward[i] * toward[i];
-                }
-                len = sqrt(len);
-                for (int i = 0; i < 3; i++)
-                    toward[i] = len > 0.0 ? toward[i] / len : 0.0;
-            }
-            double c = sf->n[0][l] * toward[0] + sf->n[1][l] * toward[1] + sf->n[2][l] * toward[2];
-            if ((sf->bsdf_lanes >> l) & 1) {
-                /* In the paper's units: pi times the BSDF, which is albedo * cos for Lambert. */
-                double f[3];
-                lane_bsdf_eval(sf, pr, l, toward, f);
-                for (int i = 0; i < 3; i++)
-                    direct[i][l] += (float)(sh->axle_light * M_PI * f[i]);
-            } else if (c > 0.0) {
-                for (int i = 0; i < 3; i++)
-                    direct[i][l] += (float)(sh->axle_light * c);
-            }
+            /* In the paper's units: pi times the BSDF, which is albedo * cos for Lambert. */
+            const double wi[3] = {toward[0][l], toward[1][l], toward[2][l]};
+            double f[3];
+            lane_bsdf_eval(sf, pr, l, wi, f);
+            for (int i = 0; i < 3; i++)
+                direct[i][l] += (float)(sh->axle_light * M_PI * f[i]);
         }
     }
     for (int j = 0; j < sh->light_count && !cancelled(sc); j++) {
