@@ -10,7 +10,8 @@
 /* The CPU's features, detected once: CPUID traps to the hypervisor in a virtual machine (about
  * 7 us each, five of them a detection), and every render call, an F12 band or a viewport sub-grid
  * among them, resolves its kernel (issue 21: 1.3 % of a 640x360 animation's F12s). Bit 0 AVX2 +
- * FMA, bit 1 AVX-512 (F, CD, BW, DQ, VL); -1 not detected yet (threads that race both store the same value). */
+ * FMA, bit 1 AVX-512 (F, CD, BW, DQ, VL); -1 not detected yet (threads that race both store the
+ * same value). */
 static int cpu_features = -1;
 
 static int detected_features(void)
