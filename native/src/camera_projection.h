@@ -14,18 +14,19 @@
 #include <math.h>
 
 /* What the rays of one image row py share: the homogeneous points of the row's point px = 0 on
- * both clip planes and their steps per unit of px. A packet (one row) computes it once. */
+ * both clip planes and their steps per unit of px. */
 typedef struct {
     double start[4], start_per_x[4], end[4], end_per_x[4];
 } projection_row;
 
-static inline void projection_row_of(const ub_camera *cam, double py, projection_row *row)
+static inline void projection_row_of(const ub_clip_plane_map *clip_start, const ub_clip_plane_map *clip_end,
+                                     double py, projection_row *row)
 {
     for (int i = 0; i < 4; i++) {
-        row->start[i] = cam->clip_start.origin[i] + py * cam->clip_start.per_y[i];
-        row->start_per_x[i] = cam->clip_start.per_x[i];
-        row->end[i] = cam->clip_end.origin[i] + py * cam->clip_end.per_y[i];
-        row->end_per_x[i] = cam->clip_end.per_x[i];
+        row->start[i] = clip_start->origin[i] + py * clip_start->per_y[i];
+        row->start_per_x[i] = clip_start->per_x[i];
+        row->end[i] = clip_end->origin[i] + py * clip_end->per_y[i];
+        row->end_per_x[i] = clip_end->per_x[i];
     }
 }
 
@@ -87,7 +88,7 @@ static inline void projection_ray_view_kind(const ub_camera *cam, int orthograph
                                             double ov[3], double dv[3], double *t_min, double *t_max)
 {
     projection_row row;
-    projection_row_of(cam, py, &row);
+    projection_row_of(&cam->clip_start, &cam->clip_end, py, &row);
     projection_ray_in_row(&row, orthographic, px, ov, dv, t_min, t_max);
 }
 

@@ -314,17 +314,18 @@ static void cone_fill(const ub_scene *sc, const ub_de_params *dps, int tx0, int 
         cone_batch(sc, dps, pending, n, cnt);
 }
 
-/* The certified starts of the blocks of image pixels (px + step l, py), l < UB_LANES (padding lanes
- * l >= n repeat pixel n - 1), computed by cone_fill. The columns first, in a loop without
- * branches (vector code), then one load a lane: no pixel coordinate is negative. */
-static void packet_starts(const ub_cone_cache *cc, int px, int py, int step, int n, double start[UB_LANES])
+/* The certified starts of the cones of image pixels (px[l], py[l]), computed by cone_fill. The
+ * indices first, in a loop without branches (vector code), then one load a lane: no pixel
+ * coordinate is negative. */
+static void lane_starts(const ub_cone_cache *cc, const int px[UB_LANES], const int py[UB_LANES],
+                        double start[UB_LANES])
 {
-    const double *row = cc->start + cone_index(cc, 0, py); /* + column: cone_index(cc, px, py) */
-    unsigned column[UB_LANES];
+    unsigned index[UB_LANES];
     for (int l = 0; l < UB_LANES; l++)
-        column[l] = (unsigned)(px + step * (l < n ? l : n - 1)) / UB_CONE_BLOCK;
+        index[l] = ((unsigned)py[l] / UB_CONE_BLOCK - (unsigned)cc->by0) * (unsigned)cc->nbx
+                 + ((unsigned)px[l] / UB_CONE_BLOCK - (unsigned)cc->bx0);
     for (int l = 0; l < UB_LANES; l++)
-        __atomic_load(&row[column[l]], &start[l], __ATOMIC_RELAXED);
+        __atomic_load(&cc->start[index[l]], &start[l], __ATOMIC_RELAXED);
 }
 
 /* The lanes whose block is empty (UB_CONE_EMPTY): past their start no ray touches an object's

@@ -1,8 +1,8 @@
 /* The render kernel, written once against the vf/vm vector interface and compiled twice
- * (kernel_avx2.c, kernel_portable.c). A packet is UB_LANES pixels: a block of 4 x 4 or 4 x 2 in
- * the one-phase render (chunk_primary, shade_chunk), a run of a row in the hit buffer's phases and
- * where the passes are written; each lane follows its own ray and the packet runs until all
- * lanes are done. Lanes never interact, so a pixel's value does not depend on the packet, tile or
+ * (kernel_avx2.c, kernel_portable.c). A packet is UB_LANES pixels: a block of 4 x 4 or 4 x 2 where
+ * camera rays are marched (chunk_primary) and shaded in one phase (shade_chunk), a run of a row
+ * where the two-phase render shades from the hit buffer; each lane follows its own ray and the
+ * packet runs until all lanes are done. Lanes never interact, so a pixel's value does not depend on the packet, tile or
  * thread that computed it.
  *
  * A render runs, for each anti-aliasing sample, two phases over the film: phase 0 marches the
@@ -64,11 +64,11 @@ typedef struct {
     int px[UB_LANES], py[UB_LANES];
 } ub_lane_pixels;
 
-/* Lane l is full-image pixel (px0 + step l, py). */
-static void row_pixels(int px0, int py, int step, ub_lane_pixels *pix)
+/* Lane l < n is full-image pixel (px0 + step l, py); padding lanes repeat the last one. */
+static void row_pixels(int px0, int py, int step, int n, ub_lane_pixels *pix)
 {
     for (int l = 0; l < UB_LANES; l++) {
-        pix->px[l] = px0 + step * l;
+        pix->px[l] = px0 + step * (l < n ? l : n - 1);
         pix->py[l] = py;
     }
 }
@@ -85,26 +85,28 @@ static int pixel_ray(const ub_camera *cam, int px, int py, const sample_point *s
                          t_max);
 }
 
-/* Camera rays of a projection camera without depth of field through image points (px[l], py):
+/* Camera rays of a projection camera without depth of field through image points (px[l], py[l]):
  * the lane loop of ub_camera_ray's arithmetic (camera_projection.h), which the compiler turns into
  * double-precision vector code, so the rays have ub_camera_ray's bits at a fraction of the cost of
  * one call per lane (issue 21: the rays' divides and square roots, lane by lane, took 12 % of a
- * render). The row's terms are computed once per packet, each lane's from its own absolute px.
+ * render). Each lane's row terms come from its own py, so a packet may span rows (a block).
  * with_range 0: the t range is not wanted and left empty, which saves two of the three divides
  * and one of the two square roots. Always inlined, so that `orthographic` and `with_range` are
  * constants and the loop has no branch. */
 static inline __attribute__((always_inline)) void projection_packet(const ub_camera *restrict cam, int orthographic,
                                                                     int with_range, const double px[UB_LANES],
-                                                                    double py, ub_packet_rays *restrict pr)
+                                                                    const double py[UB_LANES],
+                                                                    ub_packet_rays *restrict pr)
 {
     /* Local copies of what the lanes share: nothing the lanes write can alias them, so the
      * vectoriser loads them once (a copy of the whole camera cost a store-forwarding stall). */
-    projection_row row;
-    projection_row_of(cam, py, &row);
+    const ub_clip_plane_map clip_start = cam->clip_start, clip_end = cam->clip_end;
     double cam_to_world[3][4];
     memcpy(cam_to_world, cam->cam_to_world, sizeof cam_to_world);
     for (int l = 0; l < UB_LANES; l++) {
         double ov[3], dv[3], o[3], d[3], t_min, t_max;
+        projection_row row;
+        projection_row_of(&clip_start, &clip_end, py[l], &row);
         projection_ray_in_row(&row, orthographic, px[l], ov, dv, &t_min, &t_max);
         pr->t_min[l] = with_range ? t_min : 0.0; /* unused: the compiler drops its arithmetic */
         pr->t_max[l] = with_range ? t_max : 0.0;
@@ -117,19 +119,20 @@ static inline __attribute__((always_inline)) void projection_packet(const ub_cam
     }
 }
 
-/* Camera rays of the n pixels (px + step l, py), l < n; padding lanes repeat the last real
- * pixel (their results are discarded). Returns the lanes whose pixel sees the scene: outside a
- * panoramic camera's lens a lane gets the view axis and an empty t range, and is not traced.
- * with_range 0 (the shading phase, whose camera rays are not traced: their hits are in the hit
- * buffer): a projection camera's rays may come with an empty t range. */
-static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, const sample_point *sp,
-                         int with_range, ub_packet_rays *pr)
+/* Camera rays of the full-image pixels (px[l], py[l]) (padding lanes repeat a real pixel: their
+ * results are discarded). Returns the lanes whose pixel sees the scene: outside a panoramic
+ * camera's lens a lane gets the view axis and an empty t range, and is not traced. with_range 0
+ * (the shading phase, whose camera rays are not traced: their hits are in the hit buffer): a
+ * projection camera's rays may come with an empty t range. */
+static int camera_rays(const ub_camera *cam, const int px[UB_LANES], const int py[UB_LANES], const sample_point *sp,
+                       int with_range, ub_packet_rays *pr)
 {
     if (cam->panorama == UB_PANORAMA_NONE && !(cam->aperture > 0.0)) {
-        double image_x[UB_LANES];
-        for (int l = 0; l < UB_LANES; l++)
-            image_x[l] = px + step * (l < n ? l : n - 1) + sp->off[0];
-        const double image_y = py + sp->off[1];
+        double image_x[UB_LANES], image_y[UB_LANES];
+        for (int l = 0; l < UB_LANES; l++) {
+            image_x[l] = px[l] + sp->off[0];
+            image_y[l] = py[l] + sp->off[1];
+        }
         if (cam->orthographic && with_range)
             projection_packet(cam, 1, 1, image_x, image_y, pr);
         else if (cam->orthographic)
@@ -143,7 +146,7 @@ static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, 
     int seen = 0;
     for (int l = 0; l < UB_LANES; l++) {
         double o[3], d[3];
-        if (pixel_ray(cam, px + step * (l < n ? l : n - 1), py, sp, o, d, &pr->t_min[l], &pr->t_max[l]))
+        if (pixel_ray(cam, px[l], py[l], sp, o, d, &pr->t_min[l], &pr->t_max[l]))
             seen |= 1 << l;
         else
             for (int i = 0; i < 3; i++)
@@ -158,55 +161,39 @@ static int camera_packet(const ub_camera *cam, int px, int py, int step, int n, 
 }
 
 /* Packets of camera rays are blocks of UB_BLOCK_W x UB_BLOCK_H pixels (4 x 4 with 16 lanes, 4 x 2
- * with 8), marched and shaded as blocks: only the passes are written in the rows' packets of
- * UB_LANES x 1 pixels (issue 21). A packet runs until its last lane is done, so its lanes are only
- * as busy as its rays are alike: on the peer frame a pair of the rows' packets of 16 kept 52 % of
- * its lanes marching a step, a pair of 4 x 4 blocks 72 % (8 lanes: 66 % and 77 %; each pixel's
- * camera ray's steps, counted over the frame), and the shadow, World and reflection rays of a
- * block's hits are alike in the same way. A block's camera rays are copied from the rows' packets
- * and its paths back, a row segment at a time: each lane's ray, march, random numbers (its own
- * pixel's) and shading are its own, so every pass keeps its bits. */
+ * with 8), marched, shaded and written as blocks (issue 21). A packet runs until its last lane is
+ * done, so its lanes are only as busy as its rays are alike: on the peer frame a pair of the rows'
+ * packets of 16 kept 52 % of its lanes marching a step, a pair of 4 x 4 blocks 72 % (8 lanes: 66 %
+ * and 77 %; each pixel's camera ray's steps, counted over the frame), and the shadow, World and
+ * reflection rays of a block's hits are alike in the same way. Each lane's ray, march, random
+ * numbers (its own pixel's) and shading are its own, so every pass has the bits it has in any
+ * other packet. (The blocks used to take their rays from the rows' packets and give their paths
+ * back to them for the passes: those copies were 5 % of the peer render.) */
 #if UB_LANES >= 16
 #define UB_BLOCK_H 4
 #else
 #define UB_BLOCK_H 2
 #endif
 #define UB_BLOCK_W (UB_LANES / UB_BLOCK_H)
-/* A chunk: UB_BLOCK_H rows of two row packets (2 UB_LANES pixels each), 2 UB_BLOCK_H blocks side
- * by side. */
+/* A chunk: UB_BLOCK_H rows of 2 UB_LANES pixels, 2 UB_BLOCK_H blocks side by side. */
 #define UB_CHUNK_BLOCKS (2 * UB_BLOCK_H)
 
 typedef struct {
-    /* The rows' packets: their camera rays (camera_packet), and what the blocks take of them. */
-    ub_packet_rays pr[UB_BLOCK_H][2];
-    int n[UB_BLOCK_H][2];      /* pixels of the row packet; 0: the chunk ends before it */
-    int seen[UB_BLOCK_H][2];   /* lanes that see the scene (camera_packet) */
-    int traced[UB_BLOCK_H][2]; /* lanes whose rays are marched */
-    /* Every ray of the packet lies in empty blocks: no rays, no trace (skip_background). */
-    int background[UB_BLOCK_H][2];
-    /* The blocks: their camera rays and hits, the lanes that are pixels of the chunk's row
-     * packets with rays (valid), of which `seen` see the scene and `traced` were marched. */
     ub_packet_rays bp[UB_CHUNK_BLOCKS];
     ub_trace_result bt[UB_CHUNK_BLOCKS];
+    /* The pixels each block holds (rows and columns from its corner; 0: the tile ends before
+     * it), and its lanes that are pixels (valid), of which `seen` see the scene and `traced`
+     * are marched. */
+    int rows[UB_CHUNK_BLOCKS], cols[UB_CHUNK_BLOCKS];
     int valid[UB_CHUNK_BLOCKS], block_seen[UB_CHUNK_BLOCKS], block_traced[UB_CHUNK_BLOCKS];
+    /* Every ray of the block lies in empty cones: no rays, no trace (skip_background). */
+    int background[UB_CHUNK_BLOCKS];
 } ub_chunk;
-
-/* Row r of block b is UB_BLOCK_W adjacent lanes of one row packet, (r, chunk_packet(b)), from its
- * lane chunk_lane(b): blocks and packets trade rays and paths a row segment at a time. */
-static inline int chunk_packet(int b)
-{
-    return b * UB_BLOCK_W / UB_LANES;
-}
-
-static inline int chunk_lane(int b)
-{
-    return b * UB_BLOCK_W % UB_LANES;
-}
 
 /* The column and row (of the chunk's grid, from its pixel (x, y)) of lane l of block b. */
 static inline int block_column(int x, int b, int l)
 {
-    return x + chunk_packet(b) * UB_LANES + chunk_lane(b) + l % UB_BLOCK_W;
+    return x + b * UB_BLOCK_W + l % UB_BLOCK_W;
 }
 
 static inline int block_row(int y, int l)
@@ -214,92 +201,69 @@ static inline int block_row(int y, int l)
     return y + l / UB_BLOCK_W;
 }
 
-/* Whether the chunk holds rays in row packet (r, j). */
-static inline int chunk_has_rays(const ub_chunk *ch, int r, int j)
+/* The lanes of a block of `rows` x `cols` pixels. */
+static inline int block_lanes(int rows, int cols)
 {
-    return ch->n[r][j] && !ch->background[r][j];
+    int lanes = 0;
+    for (int r = 0; r < rows; r++)
+        lanes |= ((1 << cols) - 1) << (r * UB_BLOCK_W);
+    return lanes;
 }
 
-/* The lanes of a row segment of block b from a row-packet mask m. */
-static inline int segment_bits(int m, int b, int r)
+/* The full-image pixels (x0 + step column, y0 + step row) of block b of the chunk at (x, y), whose
+ * pixels are rows x cols; padding lanes repeat the nearest pixel of the block. */
+static void block_pixels(int x0, int y0, int step, int x, int y, int b, int rows, int cols, ub_lane_pixels *pix)
 {
-    return ((m >> chunk_lane(b)) & ((1 << UB_BLOCK_W) - 1)) << (r * UB_BLOCK_W);
+    for (int l = 0; l < UB_LANES; l++) {
+        const int c = l % UB_BLOCK_W < cols ? l % UB_BLOCK_W : cols - 1;
+        const int r = l / UB_BLOCK_W < rows ? l / UB_BLOCK_W : rows - 1;
+        pix->px[l] = x0 + step * (x + b * UB_BLOCK_W + c);
+        pix->py[l] = y0 + step * (y + r);
+    }
 }
 
-/* The camera rays of the chunk's row packets (hit-buffer pixels from (x, y), up to x_end, y_end),
- * from their blocks' shared first steps. With skip_background, packets all of whose rays lie in
- * empty blocks (UB_CONE_EMPTY) get none. */
+/* The camera rays of the chunk's blocks (hit-buffer pixels from (x, y), up to x_end, y_end), from
+ * their shared first steps. With skip_background, blocks all of whose rays lie in empty cones
+ * (UB_CONE_EMPTY) get none. */
 static void chunk_rays(const ub_scene *sc, const sample_point *sp, int skip_background, int x, int y, int x_end,
                        int y_end, ub_chunk *ch)
 {
     const ub_hit_buffer *hb = sc->hits;
-    for (int r = 0; r < UB_BLOCK_H; r++)
-        for (int j = 0; j < 2; j++) {
-            const int xj = x + j * UB_LANES, yr = y + r;
-            const int n = yr < y_end && xj < x_end ? (x_end - xj < UB_LANES ? x_end - xj : UB_LANES) : 0;
-            ch->n[r][j] = n;
-            ch->traced[r][j] = ch->seen[r][j] = 0;
-            ch->background[r][j] = 0;
-            if (!n)
-                continue;
-            const int px = hb->x0 + hb->step * xj, py = hb->y0 + hb->step * yr, all = (1 << n) - 1;
-            double start[UB_LANES];
-            int empty = 0;
-            if (sc->cones) { /* shared first steps: each ray starts where its block's cone is empty */
-                packet_starts(sc->cones, px, py, hb->step, n, start);
-                empty = empty_lanes(start);
-            }
-            ch->background[r][j] = skip_background && (empty & all) == all;
-            if (ch->background[r][j])
-                continue;
-            ub_packet_rays *pr = &ch->pr[r][j];
-            ch->seen[r][j] = camera_packet(sc->camera, px, py, hb->step, n, sp, 1, pr);
-            /* Lanes outside a panoramic camera's lens, or in an empty block, come back as misses
-             * (UB_HIT_NONE). */
-            if (sc->cones)
-                cone_start_rays(start, pr);
-            ch->traced[r][j] = all & ch->seen[r][j] & ~empty;
+    const int rows = y_end - y < UB_BLOCK_H ? y_end - y : UB_BLOCK_H;
+    for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
+        const int left = x_end - (x + b * UB_BLOCK_W);
+        const int cols = left <= 0 ? 0 : (left < UB_BLOCK_W ? left : UB_BLOCK_W);
+        ch->rows[b] = rows;
+        ch->cols[b] = cols;
+        ch->valid[b] = cols ? block_lanes(rows, cols) : 0;
+        ch->block_seen[b] = ch->block_traced[b] = ch->background[b] = 0;
+        if (!cols)
+            continue;
+        ub_lane_pixels pix;
+        block_pixels(hb->x0, hb->y0, hb->step, x, y, b, rows, cols, &pix);
+        double start[UB_LANES];
+        int empty = 0;
+        if (sc->cones) { /* shared first steps: each ray starts where its cone is empty */
+            lane_starts(sc->cones, pix.px, pix.py, start);
+            empty = empty_lanes(start);
         }
-}
-
-/* Block b's rays from the chunk's row packets, and its masks. Row segments where the chunk has no
- * ray get rays along the camera's axis with an empty range, which are neither marched nor shaded. */
-static void chunk_block(const ub_scene *sc, ub_chunk *ch, int b)
-{
-    const int j = chunk_packet(b), c0 = chunk_lane(b);
-    const size_t seg = UB_BLOCK_W * sizeof(double);
-    ub_packet_rays *bp = &ch->bp[b];
-    ch->valid[b] = ch->block_seen[b] = ch->block_traced[b] = 0;
-    for (int r = 0; r < UB_BLOCK_H; r++) {
-        const int l0 = r * UB_BLOCK_W;
-        if (chunk_has_rays(ch, r, j)) {
-            const ub_packet_rays *pr = &ch->pr[r][j];
-            for (int i = 0; i < 3; i++) {
-                memcpy(&bp->origin[i][l0], &pr->origin[i][c0], seg);
-                memcpy(&bp->dir[i][l0], &pr->dir[i][c0], seg);
-            }
-            memcpy(&bp->t_min[l0], &pr->t_min[c0], seg);
-            memcpy(&bp->t_max[l0], &pr->t_max[c0], seg);
-            memcpy(&bp->t_base[l0], &pr->t_base[c0], UB_BLOCK_W * sizeof(float));
-            ch->valid[b] |= segment_bits((1 << ch->n[r][j]) - 1, b, r);
-            ch->block_seen[b] |= segment_bits(ch->seen[r][j], b, r);
-            ch->block_traced[b] |= segment_bits(ch->traced[r][j], b, r);
-        } else {
-            for (int l = l0; l < l0 + UB_BLOCK_W; l++) {
-                for (int i = 0; i < 3; i++) {
-                    bp->origin[i][l] = sc->camera->position[i];
-                    bp->dir[i][l] = sc->camera->forward[i];
-                }
-                bp->t_min[l] = bp->t_max[l] = 0.0;
-                bp->t_base[l] = 0.0f;
-            }
-        }
+        ch->background[b] = skip_background && (empty & ch->valid[b]) == ch->valid[b];
+        if (ch->background[b])
+            continue;
+        ub_packet_rays *pr = &ch->bp[b];
+        const int seen = camera_rays(sc->camera, pix.px, pix.py, sp, 1, pr);
+        /* Lanes outside a panoramic camera's lens, or in an empty cone, come back as misses
+         * (UB_HIT_NONE). */
+        if (sc->cones)
+            cone_start_rays(start, pr);
+        ch->block_seen[b] = ch->valid[b] & seen;
+        ch->block_traced[b] = ch->valid[b] & seen & ~empty;
     }
 }
 
-/* The camera rays and hits of the chunk at hit-buffer pixel (x, y), in its blocks: rays by row
- * packet, marched by block, two blocks at a time where pairs pay (pair_traceable); blocks with
- * rays to march are paired with each other, wherever they are in the chunk. */
+/* The camera rays and hits of the chunk at hit-buffer pixel (x, y), in its blocks, marched two
+ * blocks at a time where pairs pay (pair_traceable); blocks with rays to march are paired with
+ * each other, wherever they are in the chunk. */
 static void chunk_primary(const ub_scene *sc, const ub_de_params *dps, const sample_point *sp, int pairs,
                           int skip_background, int x, int y, int x_end, int y_end, ub_chunk *ch, ub_counters *cnt)
 {
@@ -307,8 +271,7 @@ static void chunk_primary(const ub_scene *sc, const ub_de_params *dps, const sam
     int busy[UB_CHUNK_BLOCKS], n_busy = 0;
     const unsigned flags = sc->shading->sea ? UB_TRACE_SEA : 0;
     for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
-        chunk_block(sc, ch, b);
-        if (!ch->valid[b])
+        if (!ch->valid[b] || ch->background[b])
             continue;
         if (ch->block_traced[b] && pairs)
             busy[n_busy++] = b;
@@ -337,10 +300,11 @@ static void chunk_primary(const ub_scene *sc, const ub_de_params *dps, const sam
         i += n;
     }
     for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
+        if (!ch->valid[b] || ch->background[b]) /* (the background blocks' rays count in tile_shade) */
+            continue;
         uint64_t steps = 0;
-        for (int l = 0; l < UB_LANES; l++)
-            if ((ch->valid[b] >> l) & 1)
-                steps += (uint64_t)ch->bt[b].steps[l];
+        for (int l = 0; l < UB_LANES; l++) /* a sum of selects: vector code */
+            steps += (ch->valid[b] >> l) & 1 ? (uint64_t)ch->bt[b].steps[l] : 0;
         cnt->rays += (uint64_t)__builtin_popcount((unsigned)ch->valid[b]);
         cnt->steps += steps;
     }
@@ -825,52 +789,75 @@ static void lights_and_world(const ub_scene *sc, const ub_de_params *dps, const 
     world_sample_add(sc, &wr, &wr.st, direct, cnt);
 }
 
-/* Writes (sample 0) or accumulates (later samples) one pass's values of a packet's n pixels, a
- * run of the film's row from pixel index idx on: v[c][l] is channel c of lane l. The last sample
- * divides by the sample count. Data passes (depth, normal, position, ...) come from sample 0
- * alone: the pixel centre, as with one sample. Always inlined with a constant channel count, so
- * that a pass is a run of stores, not a call per pixel (issue 21: the calls, each testing its
- * buffer, kind and sample, were a third of the shading phase's own time). */
+/* The film pixels of a packet's lanes: `rows` rows of `cols` pixels from pixel index idx on, the
+ * film's rows `pitch` pixels apart; lane r * stride + c is pixel idx + r * pitch + c (a row's
+ * packet: one row, stride UB_LANES; a block: stride UB_BLOCK_W). */
+typedef struct {
+    size_t idx, pitch;
+    int rows, cols;
+} ub_pixel_run;
+
+/* The lanes of run u, of a packet whose rows are `stride` lanes apart. */
+static inline int run_lanes(const ub_pixel_run *u, int stride)
+{
+    int lanes = 0;
+    for (int r = 0; r < u->rows; r++)
+        lanes |= ((1 << u->cols) - 1) << (r * stride);
+    return lanes;
+}
+
+/* Writes (sample 0) or accumulates (later samples) one pass's values of a packet's pixels, run u
+ * (rows `stride` lanes apart): v[c][l] is channel c of lane l. The last sample divides by the
+ * sample count. Data passes (depth, normal, position, ...) come from sample 0 alone: the pixel
+ * centre, as with one sample. Always inlined with a constant channel count and stride, so that a
+ * pass is a run of stores, not a call per pixel (issue 21: the calls, each testing its buffer,
+ * kind and sample, were a third of the shading phase's own time). */
 typedef enum { PASS_DATA = 0, PASS_AVERAGED = 1 } pass_kind;
 
-/* put_lanes fetches this many packets ahead, in cache lines of this many floats. */
+/* put_lanes fetches this many packets' pixels ahead along the row, in cache lines of this many
+ * floats. */
 #define UB_PASS_PREFETCH 4
 #define UB_CACHE_LINE_FLOATS 16
 
-static inline __attribute__((always_inline)) void put_lanes(float *restrict buf, size_t idx, int chans, int n,
-                                                            const float v[][UB_LANES], int sample, int samples,
-                                                            pass_kind kind)
+static inline __attribute__((always_inline)) void put_lanes(float *restrict buf, const ub_pixel_run *u, int stride,
+                                                            int chans, const float v[][UB_LANES], int sample,
+                                                            int samples, pass_kind kind)
 {
     if (!buf || (kind == PASS_DATA && sample != 0))
         return;
-    float *restrict p = buf + idx * (size_t)chans;
-    /* The pass's memory UB_PASS_PREFETCH packets on, fetched for writing now: a frame's passes
-     * are far larger than the caches, and stores that miss them stalled the packets' work
-     * (issue 21: the background's packets took 3x as long with combined, alpha and depth as
-     * with combined alone, and the stores were 13 % of the peer render; with the prefetch the
-     * peer render measured 1.27x faster). A prefetch never faults, past the buffer's end too. */
-    const float *ahead = p + (size_t)UB_PASS_PREFETCH * UB_LANES * (size_t)chans;
-    for (int f = 0; f < UB_LANES * chans; f += UB_CACHE_LINE_FLOATS)
-        __builtin_prefetch(ahead + f, 1, 3);
-    if (sample == 0) {
-        /* A whole packet with a constant count: inline vector stores, not a call to memcpy. */
-        if (n == UB_LANES)
-            for (int l = 0; l < UB_LANES; l++)
-                for (int c = 0; c < chans; c++)
-                    p[l * chans + c] = v[c][l];
-        else
-            for (int l = 0; l < n; l++)
-                for (int c = 0; c < chans; c++)
-                    p[l * chans + c] = v[c][l];
-        return;
-    }
-    const int last = sample == samples - 1; /* sample > 0 here, so samples > 1 */
+    const int last = sample == samples - 1;
     const float scale = 1.0f / (float)samples;
-    for (int l = 0; l < n; l++)
-        for (int c = 0; c < chans; c++) {
-            float acc = p[l * chans + c] + v[c][l];
-            p[l * chans + c] = last ? acc * scale : acc;
+    for (int r = 0; r < u->rows; r++) {
+        float *restrict p = buf + (u->idx + (size_t)r * u->pitch) * (size_t)chans;
+        const int l0 = r * stride;
+        /* The pass's memory UB_PASS_PREFETCH packets on, fetched for writing now: a frame's
+         * passes are far larger than the caches, and stores that miss them stalled the packets'
+         * work (issue 21: the background's packets took 3x as long with combined, alpha and
+         * depth as with combined alone, and the stores were 13 % of the peer render; with the
+         * prefetch the peer render measured 1.27x faster). A prefetch never faults, past the
+         * buffer's end too. */
+        const float *ahead = p + (size_t)UB_PASS_PREFETCH * UB_LANES * (size_t)chans;
+        for (int f = 0; f < stride * chans; f += UB_CACHE_LINE_FLOATS)
+            __builtin_prefetch(ahead + f, 1, 3);
+        if (sample == 0) {
+            /* A whole row of the packet with a constant count: inline vector stores, not a call
+             * to memcpy. */
+            if (u->cols == stride)
+                for (int l = 0; l < stride; l++)
+                    for (int c = 0; c < chans; c++)
+                        p[l * chans + c] = v[c][l0 + l];
+            else
+                for (int l = 0; l < u->cols; l++)
+                    for (int c = 0; c < chans; c++)
+                        p[l * chans + c] = v[c][l0 + l];
+            continue;
         }
+        for (int l = 0; l < u->cols; l++) /* sample > 0 here, so samples > 1 */
+            for (int c = 0; c < chans; c++) {
+                float acc = p[l * chans + c] + v[c][l0 + l];
+                p[l * chans + c] = last ? acc * scale : acc;
+            }
+    }
 }
 
 /* One packet's paths through its bounces: radiance L += W * (local light), W the path's
@@ -938,36 +925,6 @@ static void start_paths(const ub_trace_result *tr, ub_paths *ps)
     memcpy(ps->primary_dist, tr->dist, sizeof ps->primary_dist);
     memcpy(ps->primary_obj, tr->object, sizeof ps->primary_obj);
     memcpy(ps->primary_out_of_steps, tr->out_of_steps, sizeof ps->primary_out_of_steps);
-}
-
-/* What write_passes reads of lanes [sl, sl + count) of src, into lanes [dl, dl + count) of dst: a
- * block's finished paths into its rows' packets (shade_chunk). */
-static void paths_copy_lanes(ub_paths *dst, int dl, const ub_paths *src, int sl, int count)
-{
-    const size_t f = (size_t)count * sizeof(float), i4 = (size_t)count * sizeof(int);
-    const size_t d8 = (size_t)count * sizeof(double);
-#define UB_COPY(field, size) memcpy(&dst->field[dl], &src->field[sl], size)
-    for (int c = 0; c < 3; c++) {
-        UB_COPY(L[c], f);
-        UB_COPY(R[c], f);
-        UB_COPY(pass_diffuse[c], f);
-        UB_COPY(pass_ambient[c], f);
-        UB_COPY(pos0[c], d8);
-        UB_COPY(nrm0[c], f);
-        UB_COPY(albedo0[c], f);
-    }
-    UB_COPY(pass_ao, f);
-    UB_COPY(pass_shadow, f);
-    UB_COPY(pass_trap, f);
-    UB_COPY(coverage, f);
-    UB_COPY(primary_steps, f);
-    UB_COPY(primary_iters, f);
-    UB_COPY(primary_dist, f);
-    UB_COPY(primary_obj, i4);
-    UB_COPY(primary_out_of_steps, i4);
-#undef UB_COPY
-    const int m = (1 << count) - 1;
-    dst->unseen = (dst->unseen & ~(m << dl)) | (((src->unseen >> sl) & m) << dl);
 }
 
 /* What a ray sees of the world along direction d: the background colour, or the world map (times
@@ -1290,18 +1247,19 @@ static void to_camera_space(const ub_camera *cam, const float n[3], float out[3]
     out[2] = (float)(n[0] * cam->forward[0] + n[1] * cam->forward[1] + n[2] * cam->forward[2]);
 }
 
-/* Every pass of the packet's n pixels at film row y, columns x.. (sample `sample`); counts the
- * camera rays that ran out of steps. Each pass that is on is computed for all lanes at once (loops
- * the compiler vectorises), then written as a run; passes that are off cost nothing. */
-static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, const ub_paths *ps,
-                         ub_counters *cnt)
+/* Every pass of the packet's pixels, run u (rows `stride` lanes apart), in sample `sample`; counts
+ * the camera rays that ran out of steps. Each pass that is on is computed for all lanes at once
+ * (loops the compiler vectorises), then written as a run; passes that are off cost nothing. */
+static inline __attribute__((always_inline)) void write_passes_body(const ub_scene *sc, int sample,
+                                                                    const ub_pixel_run *u, int stride,
+                                                                    const ub_paths *ps, ub_counters *cnt)
 {
     const ub_camera *cam = sc->camera;
     const ub_film *film = sc->film;
     const ub_shading *sh = sc->shading;
     float *const *pass = film->pass;
     const int S = sh->samples;
-    const size_t idx = (size_t)y * (size_t)film->w + (size_t)x;
+    const int lanes = run_lanes(u, stride);
     int hit[UB_LANES];
     for (int l = 0; l < UB_LANES; l++)
         hit[l] = ps->primary_obj[l] != UB_HIT_NONE;
@@ -1313,12 +1271,12 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
     for (int l = 0; l < UB_LANES; l++)
         gave_up |= (ps->primary_out_of_steps[l] != 0) << l;
     gave_up &= ~ps->unseen;
-    cnt->out_of_steps += (uint64_t)__builtin_popcount((unsigned)gave_up & ((1u << n) - 1u));
+    cnt->out_of_steps += (uint64_t)__builtin_popcount((unsigned)(gave_up & lanes));
     if (pass[UB_PASS_MAX_STEPS]) {
         float out_of_steps[1][UB_LANES];
         for (int l = 0; l < UB_LANES; l++)
             out_of_steps[0][l] = (gave_up >> l) & 1 ? 1.0f : 0.0f;
-        put_lanes(pass[UB_PASS_MAX_STEPS], idx, 1, n, out_of_steps, sample, S, PASS_AVERAGED);
+        put_lanes(pass[UB_PASS_MAX_STEPS], u, stride, 1, out_of_steps, sample, S, PASS_AVERAGED);
     }
 
     float glow[3][UB_LANES];
@@ -1332,7 +1290,7 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
             }
         else /* what the loop above gives for g = 0: the colour is finite and not negative */
             memset(glow, 0, sizeof glow);
-        put_lanes(pass[UB_PASS_GLOW], idx, 3, n, glow, sample, S, PASS_AVERAGED);
+        put_lanes(pass[UB_PASS_GLOW], u, stride, 3, glow, sample, S, PASS_AVERAGED);
     }
     if (pass[UB_PASS_COMBINED] || pass[UB_PASS_ALPHA]) {
         float rgba[4][UB_LANES], alpha[1][UB_LANES];
@@ -1350,9 +1308,9 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
             for (int i = 0; i < 3; i++)
                 for (int l = 0; l < UB_LANES; l++)
                     rgba[i][l] = ps->L[i][l] + glow[i][l];
-            put_lanes(pass[UB_PASS_COMBINED], idx, 4, n, rgba, sample, S, PASS_AVERAGED);
+            put_lanes(pass[UB_PASS_COMBINED], u, stride, 4, rgba, sample, S, PASS_AVERAGED);
         }
-        put_lanes(pass[UB_PASS_ALPHA], idx, 1, n, alpha, sample, S, PASS_AVERAGED);
+        put_lanes(pass[UB_PASS_ALPHA], u, stride, 1, alpha, sample, S, PASS_AVERAGED);
     }
     if (pass[UB_PASS_DEPTH] && sample == 0) {
         /* Along the view axis, or for panoramic cameras the distance from the camera (Cycles'
@@ -1375,8 +1333,8 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
         /* The nearest hit's depth, as a minimum without branches (a NaN depth is no hit's). */
         float nearest = INFINITY;
         int any = 0;
-        for (int l = 0; l < n; l++) {
-            const int real = hit[l] && depth[0][l] < 0.5f * UB_BACKGROUND_DEPTH;
+        for (int l = 0; l < UB_LANES; l++) {
+            const int real = ((lanes >> l) & 1) && hit[l] && depth[0][l] < 0.5f * UB_BACKGROUND_DEPTH;
             nearest = real && depth[0][l] < nearest ? depth[0][l] : nearest;
             any |= real;
         }
@@ -1384,7 +1342,7 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
             cnt->nearest_depth = nearest;
             cnt->has_depth = 1;
         }
-        put_lanes(pass[UB_PASS_DEPTH], idx, 1, n, depth, sample, S, PASS_DATA);
+        put_lanes(pass[UB_PASS_DEPTH], u, stride, 1, depth, sample, S, PASS_DATA);
     }
     /* The first hit's data, zero where the camera ray missed. */
     float v[3][UB_LANES];
@@ -1392,29 +1350,29 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
         for (int i = 0; i < 3; i++)
             for (int l = 0; l < UB_LANES; l++)
                 v[i][l] = hit[l] ? ps->nrm0[i][l] : 0.0f;
-        put_lanes(pass[UB_PASS_NORMAL], idx, 3, n, v, sample, S, PASS_DATA);
+        put_lanes(pass[UB_PASS_NORMAL], u, stride, 3, v, sample, S, PASS_DATA);
     }
     if (pass[UB_PASS_POSITION] && sample == 0) {
         for (int i = 0; i < 3; i++)
             for (int l = 0; l < UB_LANES; l++)
                 v[i][l] = hit[l] ? (float)ps->pos0[i][l] : 0.0f;
-        put_lanes(pass[UB_PASS_POSITION], idx, 3, n, v, sample, S, PASS_DATA);
+        put_lanes(pass[UB_PASS_POSITION], u, stride, 3, v, sample, S, PASS_DATA);
     }
     if (pass[UB_PASS_ITERATIONS] && sample == 0) {
         for (int l = 0; l < UB_LANES; l++)
             v[0][l] = hit[l] ? ps->primary_iters[l] : 0.0f;
-        put_lanes(pass[UB_PASS_ITERATIONS], idx, 1, n, v, sample, S, PASS_DATA);
+        put_lanes(pass[UB_PASS_ITERATIONS], u, stride, 1, v, sample, S, PASS_DATA);
     }
     if (pass[UB_PASS_DISTANCE] && sample == 0) {
         for (int l = 0; l < UB_LANES; l++)
             v[0][l] = hit[l] ? ps->primary_dist[l] : 0.0f;
-        put_lanes(pass[UB_PASS_DISTANCE], idx, 1, n, v, sample, S, PASS_DATA);
+        put_lanes(pass[UB_PASS_DISTANCE], u, stride, 1, v, sample, S, PASS_DATA);
     }
     if (pass[UB_PASS_DENOISING_ALBEDO]) {
         for (int i = 0; i < 3; i++)
             for (int l = 0; l < UB_LANES; l++)
                 v[i][l] = hit[l] ? ps->albedo0[i][l] : 0.0f;
-        put_lanes(pass[UB_PASS_DENOISING_ALBEDO], idx, 3, n, v, sample, S, PASS_AVERAGED);
+        put_lanes(pass[UB_PASS_DENOISING_ALBEDO], u, stride, 3, v, sample, S, PASS_AVERAGED);
     }
     if (pass[UB_PASS_DENOISING_NORMAL]) {
         for (int l = 0; l < UB_LANES; l++) {
@@ -1424,16 +1382,33 @@ static void write_passes(const ub_scene *sc, int sample, int x, int y, int n, co
             for (int i = 0; i < 3; i++)
                 v[i][l] = hit[l] ? camera_normal[i] : 0.0f;
         }
-        put_lanes(pass[UB_PASS_DENOISING_NORMAL], idx, 3, n, v, sample, S, PASS_AVERAGED);
+        put_lanes(pass[UB_PASS_DENOISING_NORMAL], u, stride, 3, v, sample, S, PASS_AVERAGED);
     }
     /* The rest as the paths left them. */
-    put_lanes(pass[UB_PASS_STEPS], idx, 1, n, &ps->primary_steps, sample, S, PASS_AVERAGED);
-    put_lanes(pass[UB_PASS_AO], idx, 1, n, &ps->pass_ao, sample, S, PASS_AVERAGED);
-    put_lanes(pass[UB_PASS_SHADOW], idx, 1, n, &ps->pass_shadow, sample, S, PASS_AVERAGED);
-    put_lanes(pass[UB_PASS_DIFFUSE], idx, 3, n, ps->pass_diffuse, sample, S, PASS_AVERAGED);
-    put_lanes(pass[UB_PASS_AMBIENT], idx, 3, n, ps->pass_ambient, sample, S, PASS_AVERAGED);
-    put_lanes(pass[UB_PASS_REFLECTION], idx, 3, n, ps->R, sample, S, PASS_AVERAGED);
-    put_lanes(pass[UB_PASS_ORBIT_TRAP], idx, 1, n, &ps->pass_trap, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_STEPS], u, stride, 1, &ps->primary_steps, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_AO], u, stride, 1, &ps->pass_ao, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_SHADOW], u, stride, 1, &ps->pass_shadow, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_DIFFUSE], u, stride, 3, ps->pass_diffuse, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_AMBIENT], u, stride, 3, ps->pass_ambient, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_REFLECTION], u, stride, 3, ps->R, sample, S, PASS_AVERAGED);
+    put_lanes(pass[UB_PASS_ORBIT_TRAP], u, stride, 1, &ps->pass_trap, sample, S, PASS_AVERAGED);
+}
+
+/* write_passes_body for a row's packet of n pixels at film row y, columns x.., and for block b of
+ * the chunk at film pixel (x, y), whose pixels are rows x cols: each with its stride a constant. */
+static void write_row_passes(const ub_scene *sc, int sample, int x, int y, int n, const ub_paths *ps,
+                             ub_counters *cnt)
+{
+    const ub_pixel_run u = {(size_t)y * (size_t)sc->film->w + (size_t)x, (size_t)sc->film->w, 1, n};
+    write_passes_body(sc, sample, &u, UB_LANES, ps, cnt);
+}
+
+static void write_block_passes(const ub_scene *sc, int sample, int x, int y, int b, int rows, int cols,
+                               const ub_paths *ps, ub_counters *cnt)
+{
+    const size_t pitch = (size_t)sc->film->w;
+    const ub_pixel_run u = {(size_t)y * pitch + (size_t)(x + b * UB_BLOCK_W), pitch, rows, cols};
+    write_passes_body(sc, sample, &u, UB_BLOCK_W, ps, cnt);
 }
 
 /* The paths of a packet none of whose camera rays is traced (chunk_rays), without a World map
@@ -1512,42 +1487,29 @@ static int shade_paths(const ub_tile_shading *ts, const ub_lane_pixels *pix, int
     return 1;
 }
 
-/* The full-image pixels of block b of the chunk at film pixel (x, y). */
-static void block_pixels(const ub_film *film, int x, int y, int b, ub_lane_pixels *pix)
-{
-    for (int l = 0; l < UB_LANES; l++) {
-        pix->px[l] = film->x0 + film->step * block_column(x, b, l);
-        pix->py[l] = film->y0 + film->step * block_row(y, l);
-    }
-}
-
-/* Shades the chunk's blocks at film pixel (x, y) into the paths of its rows' packets. Returns 0
- * when the render was cancelled. */
-static int shade_chunk(const ub_tile_shading *ts, int x, int y, ub_chunk *ch, ub_paths rows[UB_BLOCK_H][2],
+/* Shades the chunk's blocks at film pixel (x, y) and writes their passes; blocks that see only the
+ * film's background (chunk_rays) take theirs from `background`. Returns 0 when the render was
+ * cancelled. */
+static int shade_chunk(const ub_tile_shading *ts, int x, int y, ub_chunk *ch, const ub_paths *background,
                        ub_counters *cnt)
 {
-    for (int r = 0; r < UB_BLOCK_H; r++)
-        for (int j = 0; j < 2; j++)
-            rows[r][j].unseen = 0;
+    const ub_scene *sc = ts->sc;
+    const ub_film *film = sc->film;
     for (int b = 0; b < UB_CHUNK_BLOCKS; b++) {
         if (!ch->valid[b])
             continue;
+        if (ch->background[b]) { /* (the traced blocks' rays count in chunk_primary) */
+            cnt->rays += (uint64_t)__builtin_popcount((unsigned)ch->valid[b]);
+            write_block_passes(sc, ts->sample, x, y, b, ch->rows[b], ch->cols[b], background, cnt);
+            continue;
+        }
         ub_lane_pixels pix;
-        block_pixels(ts->sc->film, x, y, b, &pix);
-        ub_paths ps;
+        block_pixels(film->x0, film->y0, film->step, x, y, b, ch->rows[b], ch->cols[b], &pix);
+        ub_paths ps; /* (its later bounces reuse the block's rays and hits) */
         if (!shade_paths(ts, &pix, x, y, ch->valid[b], ch->block_seen[b], &ch->bp[b], &ch->bt[b], &ps, cnt))
             return 0;
-        const int j = chunk_packet(b), c0 = chunk_lane(b);
-        for (int r = 0; r < UB_BLOCK_H; r++)
-            if (chunk_has_rays(ch, r, j))
-                paths_copy_lanes(&rows[r][j], c0, &ps, r * UB_BLOCK_W, UB_BLOCK_W);
+        write_block_passes(sc, ts->sample, x, y, b, ch->rows[b], ch->cols[b], &ps, cnt);
     }
-    /* Padding lanes repeat the last pixel's paths, as a row's packet has them. */
-    for (int r = 0; r < UB_BLOCK_H; r++)
-        for (int j = 0; j < 2; j++)
-            if (chunk_has_rays(ch, r, j))
-                for (int l = ch->n[r][j]; l < UB_LANES; l++)
-                    paths_copy_lanes(&rows[r][j], l, &rows[r][j], ch->n[r][j] - 1, 1);
     return 1;
 }
 
@@ -1579,14 +1541,14 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
                 const int px0 = film->x0 + film->step * x, py = film->y0 + film->step * y;
                 ub_packet_rays pr;
                 ub_trace_result tr;
-                int seen = camera_packet(cam, px0, py, film->step, n, &ts.sp, 0, &pr);
-                buffered_hits(sc->hits, x, y, n, &tr);
                 ub_lane_pixels pix;
-                row_pixels(px0, py, film->step, &pix);
+                row_pixels(px0, py, film->step, n, &pix);
+                int seen = camera_rays(cam, pix.px, pix.py, &ts.sp, 0, &pr);
+                buffered_hits(sc->hits, x, y, n, &tr);
                 ub_paths ps;
                 if (!shade_paths(&ts, &pix, x, y, (1 << n) - 1, seen, &pr, &tr, &ps, cnt))
                     return;
-                write_passes(sc, sample, x, y, n, &ps, cnt);
+                write_row_passes(sc, sample, x, y, n, &ps, cnt);
             }
         return;
     }
@@ -1599,24 +1561,13 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
     if (background_only)
         background_paths(sc, &background);
     ub_chunk ch;
-    ub_paths rows[UB_BLOCK_H][2];
     for (int y = ty0; y < ty1; y += UB_BLOCK_H)
         for (int x = tx0; x < tx1; x += 2 * UB_LANES) {
             if (cancelled(sc))
                 return;
             chunk_primary(sc, dps, &ts.sp, pairs, background_only, x, y, tx1, ty1, &ch, cnt);
-            if (cancelled(sc) || !shade_chunk(&ts, x, y, &ch, rows, cnt))
+            if (cancelled(sc) || !shade_chunk(&ts, x, y, &ch, &background, cnt))
                 return;
-            for (int r = 0; r < UB_BLOCK_H; r++)
-                for (int j = 0; j < 2; j++) {
-                    const int n = ch.n[r][j];
-                    if (!n)
-                        continue;
-                    if (ch.background[r][j]) /* (the traced packets' rays count in chunk_primary) */
-                        cnt->rays += (uint64_t)n;
-                    write_passes(sc, sample, x + j * UB_LANES, y + r, n,
-                                 ch.background[r][j] ? &background : &rows[r][j], cnt);
-                }
         }
 }
 
