@@ -819,37 +819,46 @@ typedef enum { PASS_DATA = 0, PASS_AVERAGED = 1 } pass_kind;
 #define UB_PASS_PREFETCH 4
 #define UB_CACHE_LINE_FLOATS 16
 
+/* The pass's memory UB_PASS_PREFETCH packets on from a row's pixels at p (count x chans floats),
+ * fetched for writing now: a frame's passes are far larger than the caches, and stores that miss
+ * them stalled the packets' work (issue 21: the background's packets took 3x as long with
+ * combined, alpha and depth as with combined alone, and the stores were 13 % of the peer render;
+ * with the prefetch the peer render measured 1.27x faster). A prefetch never faults, past the
+ * buffer's end too. */
+static inline __attribute__((always_inline)) void prefetch_ahead(const float *p, int count, int chans)
+{
+    const float *ahead = p + (size_t)UB_PASS_PREFETCH * UB_LANES * (size_t)chans;
+    for (int f = 0; f < count * chans; f += UB_CACHE_LINE_FLOATS)
+        __builtin_prefetch(ahead + f, 1, 3);
+}
+
 static inline __attribute__((always_inline)) void put_lanes(float *restrict buf, const ub_pixel_run *u, int stride,
                                                             int chans, const float v[][UB_LANES], int sample,
                                                             int samples, pass_kind kind)
 {
     if (!buf || (kind == PASS_DATA && sample != 0))
         return;
+    if (sample == 0 && u->cols == stride && u->rows == UB_LANES / stride) {
+        /* The whole packet: a constant count of inline stores, not loops or a call to memcpy. */
+        for (int r = 0; r < UB_LANES / stride; r++) {
+            float *restrict p = buf + (u->idx + (size_t)r * u->pitch) * (size_t)chans;
+            prefetch_ahead(p, stride, chans);
+            for (int l = 0; l < stride; l++)
+                for (int c = 0; c < chans; c++)
+                    p[l * chans + c] = v[c][r * stride + l];
+        }
+        return;
+    }
     const int last = sample == samples - 1;
     const float scale = 1.0f / (float)samples;
     for (int r = 0; r < u->rows; r++) {
         float *restrict p = buf + (u->idx + (size_t)r * u->pitch) * (size_t)chans;
         const int l0 = r * stride;
-        /* The pass's memory UB_PASS_PREFETCH packets on, fetched for writing now: a frame's
-         * passes are far larger than the caches, and stores that miss them stalled the packets'
-         * work (issue 21: the background's packets took 3x as long with combined, alpha and
-         * depth as with combined alone, and the stores were 13 % of the peer render; with the
-         * prefetch the peer render measured 1.27x faster). A prefetch never faults, past the
-         * buffer's end too. */
-        const float *ahead = p + (size_t)UB_PASS_PREFETCH * UB_LANES * (size_t)chans;
-        for (int f = 0; f < stride * chans; f += UB_CACHE_LINE_FLOATS)
-            __builtin_prefetch(ahead + f, 1, 3);
+        prefetch_ahead(p, stride, chans);
         if (sample == 0) {
-            /* A whole row of the packet with a constant count: inline vector stores, not a call
-             * to memcpy. */
-            if (u->cols == stride)
-                for (int l = 0; l < stride; l++)
-                    for (int c = 0; c < chans; c++)
-                        p[l * chans + c] = v[c][l0 + l];
-            else
-                for (int l = 0; l < u->cols; l++)
-                    for (int c = 0; c < chans; c++)
-                        p[l * chans + c] = v[c][l0 + l];
+            for (int l = 0; l < u->cols; l++)
+                for (int c = 0; c < chans; c++)
+                    p[l * chans + c] = v[c][l0 + l];
             continue;
         }
         for (int l = 0; l < u->cols; l++) /* sample > 0 here, so samples > 1 */
@@ -1330,17 +1339,11 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
             }
         for (int l = 0; l < UB_LANES; l++)
             depth[0][l] = hit[l] ? (float)d[l] : UB_BACKGROUND_DEPTH;
-        /* The nearest hit's depth, as a minimum without branches (a NaN depth is no hit's). */
-        float nearest = INFINITY;
-        int any = 0;
+        /* The nearest hit's depth, a minimum per lane (a vector select: no reduction across the
+         * lanes here; a NaN depth is no hit's). */
         for (int l = 0; l < UB_LANES; l++) {
             const int real = ((lanes >> l) & 1) && hit[l] && depth[0][l] < 0.5f * UB_BACKGROUND_DEPTH;
-            nearest = real && depth[0][l] < nearest ? depth[0][l] : nearest;
-            any |= real;
-        }
-        if (any && (!cnt->has_depth || nearest < cnt->nearest_depth)) {
-            cnt->nearest_depth = nearest;
-            cnt->has_depth = 1;
+            cnt->nearest_lanes[l] = real && depth[0][l] < cnt->nearest_lanes[l] ? depth[0][l] : cnt->nearest_lanes[l];
         }
         put_lanes(pass[UB_PASS_DEPTH], u, stride, 1, depth, sample, S, PASS_DATA);
     }
@@ -1487,6 +1490,27 @@ static int shade_paths(const ub_tile_shading *ts, const ub_lane_pixels *pix, int
     return 1;
 }
 
+/* The passes of the chunk's background blocks (chunk_rays), at film pixel (x, y): row by row, a
+ * run of adjacent blocks at a time, up to a row packet's UB_LANES pixels, since the lanes of
+ * `background` are all alike (issue 21: most of a frame is such blocks, and a row of 16 pixels
+ * is written with fewer instructions than four rows of four). */
+static void write_background_runs(const ub_tile_shading *ts, int x, int y, const ub_chunk *ch,
+                                  const ub_paths *background, ub_counters *cnt)
+{
+    for (int r = 0; r < UB_BLOCK_H; r++)
+        for (int b = 0; b < UB_CHUNK_BLOCKS;) {
+            if (!ch->valid[b] || !ch->background[b] || r >= ch->rows[b]) {
+                b++;
+                continue;
+            }
+            const int x0 = x + b * UB_BLOCK_W;
+            int n = 0;
+            for (; b < UB_CHUNK_BLOCKS && ch->valid[b] && ch->background[b] && n + ch->cols[b] <= UB_LANES; b++)
+                n += ch->cols[b];
+            write_row_passes(ts->sc, ts->sample, x0, y + r, n, background, cnt);
+        }
+}
+
 /* Shades the chunk's blocks at film pixel (x, y) and writes their passes; blocks that see only the
  * film's background (chunk_rays) take theirs from `background`. Returns 0 when the render was
  * cancelled. */
@@ -1500,7 +1524,6 @@ static int shade_chunk(const ub_tile_shading *ts, int x, int y, ub_chunk *ch, co
             continue;
         if (ch->background[b]) { /* (the traced blocks' rays count in chunk_primary) */
             cnt->rays += (uint64_t)__builtin_popcount((unsigned)ch->valid[b]);
-            write_block_passes(sc, ts->sample, x, y, b, ch->rows[b], ch->cols[b], background, cnt);
             continue;
         }
         ub_lane_pixels pix;
@@ -1510,6 +1533,7 @@ static int shade_chunk(const ub_tile_shading *ts, int x, int y, ub_chunk *ch, co
             return 0;
         write_block_passes(sc, ts->sample, x, y, b, ch->rows[b], ch->cols[b], &ps, cnt);
     }
+    write_background_runs(ts, x, y, ch, background, cnt);
     return 1;
 }
 

@@ -4,6 +4,7 @@
 #include "params.h"
 #include "port.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -85,6 +86,30 @@ typedef union {
     ub_counters counters;
     char line[128];
 } ub_thread_counters;
+_Static_assert(sizeof(ub_counters) <= 128, "a thread's counters fit their 128 bytes");
+
+/* Counters before the first tile: zero, and no depth seen in any lane. */
+static void ub_counters_start(ub_counters *c)
+{
+    memset(c, 0, sizeof *c);
+    for (int l = 0; l < UB_MAX_LANES; l++)
+        c->nearest_lanes[l] = INFINITY;
+}
+
+/* A thread's counters into the render's: sums, and the nearest depth of every lane. */
+static void ub_counters_add(ub_counters *total, const ub_counters *c)
+{
+    total->rays += c->rays;
+    total->steps += c->steps;
+    total->iterations += c->iterations;
+    total->normal_iterations += c->normal_iterations;
+    total->out_of_steps += c->out_of_steps;
+    for (int l = 0; l < UB_MAX_LANES; l++)
+        if (c->nearest_lanes[l] < INFINITY && (!total->has_depth || c->nearest_lanes[l] < total->nearest_depth)) {
+            total->nearest_depth = c->nearest_lanes[l];
+            total->has_depth = 1;
+        }
+}
 
 /* The render's threads, started once per render (issue 21: not once per phase) and handed one job
  * after another: a phase of a sample, cut into tiles. */
@@ -412,6 +437,8 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     const int film_tiles = ((film->w + opt->tile_size - 1) / opt->tile_size)
                          * ((film->h + opt->tile_size - 1) / opt->tile_size);
     unsigned char *finished = clearing ? calloc((size_t)film_tiles, 1) : NULL;
+    for (int i = 0; per_thread && i < threads; i++)
+        ub_counters_start(&per_thread[i].counters);
     if (!per_thread || !workers || (apron && !hb.hits) || !cones_ok || (clearing && !finished)) {
         free(per_thread);
         free(workers);
@@ -443,17 +470,8 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     }
     pool_stop(&pool, workers, started);
     stats->seconds = ub_monotonic_seconds() - t0;
-    for (int i = 0; i < threads; i++) {
-        const ub_counters *c = &per_thread[i].counters;
-        stats->counters.rays += c->rays;
-        stats->counters.steps += c->steps;
-        stats->counters.iterations += c->iterations;
-        stats->counters.normal_iterations += c->normal_iterations;
-        stats->counters.out_of_steps += c->out_of_steps;
-        if (c->has_depth && (!stats->counters.has_depth || c->nearest_depth < stats->counters.nearest_depth))
-            stats->counters.nearest_depth = c->nearest_depth;
-        stats->counters.has_depth |= c->has_depth;
-    }
+    for (int i = 0; i < threads; i++)
+        ub_counters_add(&stats->counters, &per_thread[i].counters);
     stats->threads = started ? started : 1;
     stats->isa = ub_isa_names[kernel];
     stats->cancelled = __atomic_load_n(scene.cancel, __ATOMIC_RELAXED) != 0;

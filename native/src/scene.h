@@ -40,6 +40,7 @@
 #define UB_LANES 8
 #endif
 #define UB_ALL_LANES ((1 << UB_LANES) - 1)
+#define UB_MAX_LANES 16 /* the widest kernel's UB_LANES */
 
 typedef enum { UB_EPSILON_PIXEL = 0, UB_EPSILON_FIXED = 1 } ub_epsilon_mode;
 
@@ -352,7 +353,10 @@ typedef struct {
     uint64_t out_of_steps;
     /* The nearest hit's depth in the depth pass (sample 0; has_depth: any hit written), for the
      * precision check's footprint ratio: kept while the passes are written, so that the check
-     * needs no pass over the whole frame afterwards (issue 21). */
+     * needs no pass over the whole frame afterwards (issue 21). The kernels keep it per lane
+     * (INFINITY: none yet; ub_counters_start), a vector minimum with no reduction across the
+     * lanes; the render reduces the lanes into has_depth and nearest_depth when it ends. */
+    float nearest_lanes[UB_MAX_LANES];
     int has_depth;
     float nearest_depth;
 } ub_counters;
