@@ -2,8 +2,8 @@
  * (kernel_avx2.c, kernel_portable.c). A packet is UB_LANES pixels: a block of 4 x 4 or 4 x 2 where
  * camera rays are marched (chunk_primary) and shaded in one phase (shade_chunk), a run of a row
  * where the two-phase render shades from the hit buffer; each lane follows its own ray and the
- * packet runs until all lanes are done. Lanes never interact, so a pixel's value does not depend on the packet, tile or
- * thread that computed it.
+ * packet runs until all lanes are done. Lanes never interact, so a pixel's value does not depend
+ * on the packet, tile or thread that computed it.
  *
  * A render runs, for each anti-aliasing sample, two phases over the film: phase 0 marches the
  * camera rays into a hit buffer (the r^2 memory of the paper, plus a one-pixel apron), phase 1
@@ -201,12 +201,12 @@ static inline int block_row(int y, int l)
     return y + l / UB_BLOCK_W;
 }
 
-/* The lanes of a block of `rows` x `cols` pixels. */
-static inline int block_lanes(int rows, int cols)
+/* The lanes of `rows` rows of `cols` pixels in a packet whose rows are `stride` lanes apart. */
+static inline int grid_lanes(int rows, int cols, int stride)
 {
     int lanes = 0;
     for (int r = 0; r < rows; r++)
-        lanes |= ((1 << cols) - 1) << (r * UB_BLOCK_W);
+        lanes |= ((1 << cols) - 1) << (r * stride);
     return lanes;
 }
 
@@ -235,7 +235,7 @@ static void chunk_rays(const ub_scene *sc, const sample_point *sp, int skip_back
         const int cols = left <= 0 ? 0 : (left < UB_BLOCK_W ? left : UB_BLOCK_W);
         ch->rows[b] = rows;
         ch->cols[b] = cols;
-        ch->valid[b] = cols ? block_lanes(rows, cols) : 0;
+        ch->valid[b] = grid_lanes(rows, cols, UB_BLOCK_W);
         ch->block_seen[b] = ch->block_traced[b] = ch->background[b] = 0;
         if (!cols)
             continue;
@@ -797,15 +797,6 @@ typedef struct {
     int rows, cols;
 } ub_pixel_run;
 
-/* The lanes of run u, of a packet whose rows are `stride` lanes apart. */
-static inline int run_lanes(const ub_pixel_run *u, int stride)
-{
-    int lanes = 0;
-    for (int r = 0; r < u->rows; r++)
-        lanes |= ((1 << u->cols) - 1) << (r * stride);
-    return lanes;
-}
-
 /* Writes (sample 0) or accumulates (later samples) one pass's values of a packet's pixels, run u
  * (rows `stride` lanes apart): v[c][l] is channel c of lane l. The last sample divides by the
  * sample count. Data passes (depth, normal, position, ...) come from sample 0 alone: the pixel
@@ -1268,7 +1259,7 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
     const ub_shading *sh = sc->shading;
     float *const *pass = film->pass;
     const int S = sh->samples;
-    const int lanes = run_lanes(u, stride);
+    const int lanes = grid_lanes(u->rows, u->cols, stride);
     int hit[UB_LANES];
     for (int l = 0; l < UB_LANES; l++)
         hit[l] = ps->primary_obj[l] != UB_HIT_NONE;
