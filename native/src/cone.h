@@ -276,9 +276,13 @@ static void cone_batch(const ub_scene *sc, const ub_de_params *dps, const int *i
     }
 }
 
-static inline int cone_index(const ub_cone_cache *cc, int px, int py)
+/* The cone of image pixel (px, py). No pixel coordinate is negative (the hit buffer's apron lies
+ * inside the image), so unsigned arithmetic: a shift where a signed divide needs a fix-up for
+ * negative numbers, and loops of it become vector code (lane_starts). */
+static inline unsigned cone_index(const ub_cone_cache *cc, int px, int py)
 {
-    return (py / UB_CONE_BLOCK - cc->by0) * cc->nbx + (px / UB_CONE_BLOCK - cc->bx0);
+    return ((unsigned)py / UB_CONE_BLOCK - (unsigned)cc->by0) * (unsigned)cc->nbx
+         + ((unsigned)px / UB_CONE_BLOCK - (unsigned)cc->bx0);
 }
 
 /* Computes the cones of the blocks under the hit-buffer tile [tx0, tx1) x [ty0, ty1) that no
@@ -300,10 +304,10 @@ static void cone_fill(const ub_scene *sc, const ub_de_params *dps, int tx0, int 
             if (px / UB_CONE_BLOCK == last_col)
                 continue;
             last_col = px / UB_CONE_BLOCK;
-            int i = cone_index(cc, px, py);
+            unsigned i = cone_index(cc, px, py);
             if (__atomic_load_n(&cc->ready[i], __ATOMIC_ACQUIRE))
                 continue;
-            pending[n++] = i;
+            pending[n++] = (int)i;
             if (n == UB_LANES) {
                 cone_batch(sc, dps, pending, n, cnt);
                 n = 0;
@@ -323,8 +327,7 @@ static void lane_starts(const ub_cone_cache *cc, const int px[UB_LANES], const i
 {
     unsigned index[UB_LANES];
     for (int l = 0; l < UB_LANES; l++)
-        index[l] = ((unsigned)py[l] / UB_CONE_BLOCK - (unsigned)cc->by0) * (unsigned)cc->nbx
-                 + ((unsigned)px[l] / UB_CONE_BLOCK - (unsigned)cc->bx0);
+        index[l] = cone_index(cc, px[l], py[l]);
     int one_cone = 1;
     for (int l = 0; l < UB_LANES; l++)
         one_cone &= index[l] == index[0];

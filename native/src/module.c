@@ -699,7 +699,7 @@ static int parse_passes(PyObject *passes_o, ub_film *film, Py_buffer *views, int
 /* Footprint of a pixel at the nearest hit (the depth pass) over the largest world bounding radius:
  * below UB_PRECISION_LIMIT float32 no longer resolves the surface (README, Precision). None
  * without a depth pass, a hit or an object that the slice meets. The nearest hit comes from the
- * kernels (ub_counters.nearest_depth), which saw every depth they wrote (issue 21: no pass over
+ * kernels (ub_counters_nearest_depth), which saw every depth they wrote (issue 21: no pass over
  * the whole frame); a call whose samples start past the first writes no depth (sample 0 alone
  * does), and there the depth pass the caller kept from sample 0 is read. */
 static PyObject *footprint_ratio(const ub_camera *cam, const ub_object *objs, int count, const ub_film *film,
@@ -713,8 +713,9 @@ static PyObject *footprint_ratio(const ub_camera *cam, const ub_object *objs, in
     if (!depth)
         Py_RETURN_NONE;
     if (wrote_depth) {
-        if (counters->has_depth)
-            nearest = counters->nearest_depth;
+        const float kernels_nearest = ub_counters_nearest_depth(counters);
+        if (kernels_nearest < INFINITY)
+            nearest = kernels_nearest;
     } else {
         for (size_t i = 0; i < (size_t)film->w * film->h; i++)
             if (depth[i] < 0.5f * UB_BACKGROUND_DEPTH && depth[i] < nearest)

@@ -96,7 +96,7 @@ static void ub_counters_start(ub_counters *c)
         c->nearest_lanes[l] = INFINITY;
 }
 
-/* A thread's counters into the render's: sums, and the nearest depth of every lane. */
+/* A thread's counters into the render's (ub_counters_start'ed): sums, and each lane's nearest depth. */
 static void ub_counters_add(ub_counters *total, const ub_counters *c)
 {
     total->rays += c->rays;
@@ -105,10 +105,8 @@ static void ub_counters_add(ub_counters *total, const ub_counters *c)
     total->normal_iterations += c->normal_iterations;
     total->out_of_steps += c->out_of_steps;
     for (int l = 0; l < UB_MAX_LANES; l++)
-        if (c->nearest_lanes[l] < INFINITY && (!total->has_depth || c->nearest_lanes[l] < total->nearest_depth)) {
-            total->nearest_depth = c->nearest_lanes[l];
-            total->has_depth = 1;
-        }
+        total->nearest_lanes[l] = c->nearest_lanes[l] < total->nearest_lanes[l] ? c->nearest_lanes[l]
+                                                                                 : total->nearest_lanes[l];
 }
 
 /* The render's threads, started once per render (issue 21: not once per phase) and handed one job
@@ -391,6 +389,7 @@ static void clear_unfinished_tiles(const ub_film *film, int tile, const unsigned
 const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub_render_stats *stats)
 {
     memset(stats, 0, sizeof *stats);
+    ub_counters_start(&stats->counters);
     ub_isa kernel;
     const char *isa_error = ub_resolve_isa(opt->isa, &kernel);
     if (isa_error)

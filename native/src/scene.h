@@ -6,6 +6,7 @@
 #define UNBOUND_SCENE_H
 
 #include <stdint.h>
+#include <math.h>
 #include <stddef.h>
 
 #include "zoom.h"
@@ -351,15 +352,22 @@ typedef struct {
     /* Camera rays of the film (each sample) that ran out of max_steps before they hit or left
      * the fractal: drawn as whatever lies behind, the background mostly (issue 18). */
     uint64_t out_of_steps;
-    /* The nearest hit's depth in the depth pass (sample 0; has_depth: any hit written), for the
-     * precision check's footprint ratio: kept while the passes are written, so that the check
-     * needs no pass over the whole frame afterwards (issue 21). The kernels keep it per lane
-     * (INFINITY: none yet; ub_counters_start), a vector minimum with no reduction across the
-     * lanes; the render reduces the lanes into has_depth and nearest_depth when it ends. */
+    /* The nearest hit's depth in the depth pass (sample 0), for the precision check's footprint
+     * ratio: kept while the passes are written, so that the check needs no pass over the whole
+     * frame afterwards (issue 21). The kernels keep it per lane (INFINITY: none yet;
+     * ub_counters_start), a vector minimum with no reduction across the lanes; the render's
+     * nearest depth is the least of them (ub_counters_nearest_depth). */
     float nearest_lanes[UB_MAX_LANES];
-    int has_depth;
-    float nearest_depth;
 } ub_counters;
+
+/* The nearest depth any lane wrote; INFINITY where none wrote one. */
+static inline float ub_counters_nearest_depth(const ub_counters *c)
+{
+    float nearest = INFINITY;
+    for (int l = 0; l < UB_MAX_LANES; l++)
+        nearest = c->nearest_lanes[l] < nearest ? c->nearest_lanes[l] : nearest;
+    return nearest;
+}
 
 /* What the camera ray of one pixel (one sample) hit: written by the primary phase, read by the
  * shading phase (the Z-buffer normals of eq. 12-14 need the neighbours' hits). */
