@@ -713,9 +713,7 @@ static PyObject *footprint_ratio(const ub_camera *cam, const ub_object *objs, in
     if (!depth)
         Py_RETURN_NONE;
     if (wrote_depth) {
-        const float kernels_nearest = ub_counters_nearest_depth(counters);
-        if (kernels_nearest < INFINITY)
-            nearest = kernels_nearest;
+        nearest = ub_counters_nearest_depth(counters); /* INFINITY (no hit) is HUGE_VAL */
     } else {
         for (size_t i = 0; i < (size_t)film->w * film->h; i++)
             if (depth[i] < 0.5f * UB_BACKGROUND_DEPTH && depth[i] < nearest)

@@ -96,7 +96,8 @@ static void ub_counters_start(ub_counters *c)
         c->nearest_lanes[l] = INFINITY;
 }
 
-/* A thread's counters into the render's (ub_counters_start'ed): sums, and each lane's nearest depth. */
+/* A thread's counters into the render's (both begun by ub_counters_start): sums, and each lane's
+ * nearest depth. */
 static void ub_counters_add(ub_counters *total, const ub_counters *c)
 {
     total->rays += c->rays;
@@ -105,8 +106,7 @@ static void ub_counters_add(ub_counters *total, const ub_counters *c)
     total->normal_iterations += c->normal_iterations;
     total->out_of_steps += c->out_of_steps;
     for (int l = 0; l < UB_MAX_LANES; l++)
-        total->nearest_lanes[l] = c->nearest_lanes[l] < total->nearest_lanes[l] ? c->nearest_lanes[l]
-                                                                                 : total->nearest_lanes[l];
+        total->nearest_lanes[l] = fminf(total->nearest_lanes[l], c->nearest_lanes[l]);
 }
 
 /* The render's threads, started once per render (issue 21: not once per phase) and handed one job

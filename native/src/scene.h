@@ -5,9 +5,9 @@
 #ifndef UNBOUND_SCENE_H
 #define UNBOUND_SCENE_H
 
-#include <stdint.h>
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "zoom.h"
 
@@ -365,7 +365,7 @@ static inline float ub_counters_nearest_depth(const ub_counters *c)
 {
     float nearest = INFINITY;
     for (int l = 0; l < UB_MAX_LANES; l++)
-        nearest = c->nearest_lanes[l] < nearest ? c->nearest_lanes[l] : nearest;
+        nearest = fminf(nearest, c->nearest_lanes[l]);
     return nearest;
 }
 
