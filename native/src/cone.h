@@ -62,7 +62,7 @@ static void world_ball(const ub_object *o, double centre[3], double *radius)
 typedef struct {
     double origin[3][UB_LANES], axis[3][UB_LANES];
     double spread0[UB_LANES], spread1[UB_LANES]; /* r(t) = spread0 + spread1 t */
-    double speed[UB_LANES];                      /* largest |u| of a ray of the block */
+    double speed; /* largest |u| of a ray of any block: the camera's (camera_speed), the same for all */
     double beyond[UB_LANES]; /* past this t no ray of the block is in any object's bounding ball */
 } block_cones;
 
@@ -93,59 +93,86 @@ static double camera_speed(const ub_camera *cam)
  *   (|axis|^2 - spread1^2) t^2 + 2 (axis.rel - spread1 R) t + |rel|^2 - R^2 <= 0,
  * rel = origin - centre, R = radius + spread0, which holds only between its roots: beyond the
  * larger one (0 where it has none) no ray meets the ball. Grown by far more than its rounding;
- * HUGE_VAL where the cone is as wide as its axis is long (no t is certain). */
-static double cone_leaves_ball(const double origin[3], const double axis[3], double spread0, double spread1,
-                               const double centre[3], double radius)
+ * HUGE_VAL where the cone is as wide as its axis is long (no t is certain). Without branches, so
+ * that a lane loop over it is vector code: the other cases' values (a root of a negative number,
+ * a division by 0) are computed and not chosen. */
+static inline __attribute__((always_inline)) double cone_leaves_ball(const double origin[3], const double axis[3], double spread0, double spread1,
+                                      const double centre[3], double radius)
 {
     const double rel[3] = {origin[0] - centre[0], origin[1] - centre[1], origin[2] - centre[2]};
     const double R = radius + spread0;
-    const double qa = axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2] - spread1 * spread1;
+    const double axis2 = axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2];
+    const double qa = axis2 - spread1 * spread1;
     const double qb = axis[0] * rel[0] + axis[1] * rel[1] + axis[2] * rel[2] - spread1 * R;
     const double qc = rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2] - R * R;
-    if (!(qa > 1e-3 * (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])))
-        return HUGE_VAL;
     const double disc = qb * qb - qa * qc;
-    if (disc < 0.0)
-        return 0.0;
     const double far = (sqrt(disc) - qb) / qa;
     const double scale = sqrt(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]) + R;
-    return far > 0.0 ? far * (1.0 + 1e-6) + 1e-9 * scale / sqrt(qa) : 0.0;
+    const double beyond = far > 0.0 ? far * (1.0 + 1e-6) + 1e-9 * scale / sqrt(qa) : 0.0;
+    return !(qa > 1e-3 * axis2) ? HUGE_VAL : disc < 0.0 ? 0.0 : beyond;
 }
 
-/* The cone of block (bx, by) into lane l: the axis through the block's centre, the spreads from
- * its corners (the pixels' areas: every sample offset in [0, 1) stays inside). */
-static void block_cone(const ub_scene *sc, const double (*ball_centre)[3], const double *ball_radius, int bx, int by,
-                       int l, block_cones *bc)
+/* Each lane's beyond grown to where its cone leaves the ball (centre, radius). A loop of its own,
+ * the lanes innermost: vector code. */
+static inline __attribute__((always_inline)) void cones_leave_ball(block_cones *bc, const double centre[3],
+                                                                   double radius)
+{
+    for (int l = 0; l < UB_LANES; l++) {
+        const double origin[3] = {bc->origin[0][l], bc->origin[1][l], bc->origin[2][l]};
+        const double axis[3] = {bc->axis[0][l], bc->axis[1][l], bc->axis[2][l]};
+        bc->beyond[l] = ub_fmax(bc->beyond[l],
+                                cone_leaves_ball(origin, axis, bc->spread0[l], bc->spread1[l], centre, radius));
+    }
+}
+
+/* A cone's spreads (block_cones_kind) grown to take the ray through image point (x, y): the
+ * distances of its origin and direction from the cone's axis ray (origin, axis). */
+static inline __attribute__((always_inline)) void corner_spread(const ub_camera *cam, const int orthographic,
+        double x, double y, const double origin[3], const double axis[3], double *spread0, double *spread1)
+{
+    double ov[3], dv[3], t0, t1, o[3], d[3];
+    projection_ray_view_kind(cam, orthographic, x, y, ov, dv, &t0, &t1);
+    view_to_world(cam->cam_to_world, ov, dv, o, d);
+    *spread0 = ub_fmax(*spread0, distance3(o, origin));
+    *spread1 = ub_fmax(*spread1, distance3(d, axis));
+}
+
+/* The cones of the blocks (bx[l], by[l]) into bc's lanes: the axis through each block's centre,
+ * the spreads from its corners (the pixels' areas: every sample offset in [0, 1) stays inside).
+ * Lane loops over plain arrays, `orthographic` known when compiled: double-precision vector code
+ * (issue 21: block by block, with five rays each, the cones were 2 % of a render). */
+static inline __attribute__((always_inline)) void block_cones_kind(const ub_scene *sc,
+        const double (*ball_centre)[3], const double *ball_radius, const double bx[UB_LANES],
+        const double by[UB_LANES], const int orthographic, block_cones *bc)
 {
     const ub_camera *cam = sc->camera;
-    const int orthographic = cam->orthographic;
-    const double size = UB_CONE_BLOCK, x0 = size * bx, y0 = size * by;
-    double ov[3], dv[3], t0, t1, origin[3], axis[3];
-    projection_ray_view_kind(cam, orthographic, x0 + 0.5 * size, y0 + 0.5 * size, ov, dv, &t0, &t1);
-    view_to_world(cam->cam_to_world, ov, dv, origin, axis);
-    double spread0 = 0.0, spread1 = 0.0;
-    for (int corner = 0; corner < 4; corner++) {
-        double o[3], d[3];
-        projection_ray_view_kind(cam, orthographic, x0 + size * (corner & 1), y0 + size * (corner >> 1), ov, dv,
-                                 &t0, &t1);
-        view_to_world(cam->cam_to_world, ov, dv, o, d);
-        spread0 = ub_fmax(spread0, distance3(o, origin));
-        spread1 = ub_fmax(spread1, distance3(d, axis));
+    const double size = UB_CONE_BLOCK;
+    for (int l = 0; l < UB_LANES; l++) {
+        const double x0 = size * bx[l], y0 = size * by[l];
+        double ov[3], dv[3], t0, t1, origin[3], axis[3];
+        projection_ray_view_kind(cam, orthographic, x0 + 0.5 * size, y0 + 0.5 * size, ov, dv, &t0, &t1);
+        view_to_world(cam->cam_to_world, ov, dv, origin, axis);
+        /* The corners written out, not a loop: the lane loop is then the innermost one, which the
+         * compiler vectorises. */
+        double spread0 = 0.0, spread1 = 0.0;
+        corner_spread(cam, orthographic, x0, y0, origin, axis, &spread0, &spread1);
+        corner_spread(cam, orthographic, x0 + size, y0, origin, axis, &spread0, &spread1);
+        corner_spread(cam, orthographic, x0, y0 + size, origin, axis, &spread0, &spread1);
+        corner_spread(cam, orthographic, x0 + size, y0 + size, origin, axis, &spread0, &spread1);
+        for (int i = 0; i < 3; i++) {
+            bc->origin[i][l] = origin[i];
+            bc->axis[i][l] = axis[i];
+        }
+        /* Margins far above the rounding of the pixels' own rays (a few 1e-16 relative). */
+        double scale = 1.0 + fabs(origin[0]) + fabs(origin[1]) + fabs(origin[2]);
+        bc->spread0[l] = spread0 * (1.0 + 1e-6) + 1e-12 * scale;
+        bc->spread1[l] = spread1 * (1.0 + 1e-6) + 1e-12;
+        bc->beyond[l] = 0.0;
     }
-    for (int i = 0; i < 3; i++) {
-        bc->origin[i][l] = origin[i];
-        bc->axis[i][l] = axis[i];
-    }
-    /* Margins far above the rounding of the pixels' own rays (a few 1e-16 relative). */
-    double scale = 1.0 + fabs(origin[0]) + fabs(origin[1]) + fabs(origin[2]);
-    bc->spread0[l] = spread0 * (1.0 + 1e-6) + 1e-12 * scale;
-    bc->spread1[l] = spread1 * (1.0 + 1e-6) + 1e-12;
-    bc->speed[l] = camera_speed(cam);
-    bc->beyond[l] = 0.0;
     for (int k = 0; k < sc->object_count; k++)
         if (ball_radius[k] >= 0.0)
-            bc->beyond[l] = ub_fmax(bc->beyond[l], cone_leaves_ball(origin, axis, bc->spread0[l], bc->spread1[l],
-                                                                 ball_centre[k], ball_radius[k]));
+            cones_leave_ball(bc, ball_centre[k], ball_radius[k]);
+    bc->speed = camera_speed(cam);
 }
 
 /* Lower bounds of the distance from the points c (world) to object o, less its hit threshold,
@@ -231,7 +258,7 @@ static void march_cones(const ub_scene *sc, const ub_de_params *dps, const block
         for (int l = 0; l < n; l++) {
             if (!((open >> l) & 1))
                 continue;
-            double gain = (clear[l] - (bc->spread0[l] + bc->spread1[l] * t[l])) / bc->speed[l];
+            double gain = (clear[l] - (bc->spread0[l] + bc->spread1[l] * t[l])) / bc->speed;
             /* Once the cone nearly fills the sphere, further steps gain little: stop. */
             if (!(gain > 0.125 * clear[l]) || !(t[l] + gain < HUGE_VAL) || t[l] >= bc->beyond[l]) {
                 open &= ~(1 << l);
@@ -258,10 +285,16 @@ static void cone_batch(const ub_scene *sc, const ub_de_params *dps, const int *i
         if (sc->objects[k].bound_radius >= 0.0)
             world_ball(&sc->objects[k], centre[k], &radius[k]);
     }
+    double bx[UB_LANES], by[UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
         int i = idx[l < n ? l : n - 1];
-        block_cone(sc, centre, radius, cc->bx0 + i % cc->nbx, cc->by0 + i / cc->nbx, l, &bc);
+        bx[l] = cc->bx0 + i % cc->nbx;
+        by[l] = cc->by0 + i / cc->nbx;
     }
+    if (sc->camera->orthographic)
+        block_cones_kind(sc, centre, radius, bx, by, 1, &bc);
+    else
+        block_cones_kind(sc, centre, radius, bx, by, 0, &bc);
     double start[UB_LANES];
     uint64_t iterations[UB_LANES];
     march_cones(sc, dps, &bc, n, start, iterations);
