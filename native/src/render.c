@@ -80,13 +80,14 @@ int ub_cpu_count(void)
 static void cone_cache_free(ub_cone_cache *c);
 
 /* A thread's counters, alone on their cache lines: the kernels bump them for every pixel, and two
- * threads writing one line would pass it back and forth between their cores (false sharing). 128
- * bytes apart, so not even the adjacent-line prefetcher pairs them, whatever calloc's alignment. */
+ * threads writing one line would pass it back and forth between their cores (false sharing). 256
+ * bytes each, so that whatever calloc's alignment, no aligned pair of 64-byte lines (what the
+ * adjacent-line prefetcher fetches together) holds two threads' counters. */
 typedef union {
     ub_counters counters;
-    char line[128];
+    char line[256];
 } ub_thread_counters;
-_Static_assert(sizeof(ub_counters) <= 128, "a thread's counters fit their 128 bytes");
+_Static_assert(sizeof(ub_counters) <= 128, "a thread's counters fit 128 bytes of their 256");
 
 /* Counters before the first tile: zero, and no depth seen in any lane. */
 static void ub_counters_start(ub_counters *c)
@@ -125,7 +126,9 @@ typedef struct {
     int phase, sample;
     int width, height; /* region tiled: the hit buffer (UB_PHASE_TRACE) or the film */
     int tile, tiles_x, tile_count;
-    int next_tile;  /* atomic: next tile to hand out */
+    /* The tiles in `stripes` runs of stripe_length, one run per worker (tile_of_ticket). */
+    int stripes, stripe_length;
+    int next_tile;  /* atomic: the next ticket to hand out */
     int tiles_done; /* atomic */
     /* Film jobs with clear_unfinished: 1 per tile finished before any cancel; else NULL. */
     unsigned char *tile_finished;
@@ -162,13 +165,28 @@ static void mark_finished(ub_pool *pool, int t)
         pool->tile_finished[t] = 1;
 }
 
+/* The tile (row-major index) of ticket n, or -1 for none: the tiles in row-major order are cut
+ * into one run per worker, and ticket n takes the next tile of run n % stripes. Workers taking
+ * turns then each go along a run of their own, far from the others': two threads on side by side
+ * tiles would pass cache lines back and forth where each row of the passes crosses their common
+ * edge (the caller's rows need not start on a line), and along its run a thread keeps row-major
+ * order's locality (the next tile continues the same rows, pages and memory streams). */
+static int tile_of_ticket(const ub_pool *pool, int n)
+{
+    int t = (n % pool->stripes) * pool->stripe_length + n / pool->stripes;
+    return t < pool->tile_count ? t : -1;
+}
+
 /* A worker's share of the current job: tiles until none is left or the render is cancelled. */
 static void work_on_job(ub_pool *pool, ub_counters *cnt)
 {
     while (!__atomic_load_n(pool->scene->cancel, __ATOMIC_RELAXED)) {
-        int t = __atomic_fetch_add(&pool->next_tile, 1, __ATOMIC_RELAXED);
-        if (t >= pool->tile_count)
+        int ticket = __atomic_fetch_add(&pool->next_tile, 1, __ATOMIC_RELAXED);
+        if (ticket >= pool->stripes * pool->stripe_length)
             break;
+        int t = tile_of_ticket(pool, ticket);
+        if (t < 0)
+            continue;
         int ty, ty1;
         tile_rows(pool, t, &ty, &ty1);
         run_tile(pool, t, ty, ty1, cnt);
@@ -273,6 +291,8 @@ static void run_job(ub_pool *pool, int started, const ub_render_options *opt, in
 {
     pool->tiles_x = (pool->width + pool->tile - 1) / pool->tile;
     pool->tile_count = pool->tiles_x * ((pool->height + pool->tile - 1) / pool->tile);
+    pool->stripes = started > 1 ? started : 1;
+    pool->stripe_length = (pool->tile_count + pool->stripes - 1) / pool->stripes;
     pool->next_tile = 0;
     pool->tiles_done = 0;
     if (pool->tile_finished)
