@@ -151,6 +151,10 @@ def main():
         if k in peaks:
             print("  measured FMA peak %.1f GFLOP/s per core: %s %% of it (the march's iterations alone: %s %%)" % (
                 peaks[k], med([100.0 * g / peaks[k] for g in gflops]), med([100.0 * g / peaks[k] for g in march])))
+            # The two halves of that median apart: a second thread in the same process shares the
+            # machine's caches and the film's memory with the first (bench/README.md).
+            print("  of the peak: 1 thread %s %%, 2 threads %s %%" % tuple(
+                med([100.0 * g / peaks[k] for g in gflops[i * len(one):(i + 1) * len(one)]]) for i in (0, 1)))
         if args.ceiling:
             loop = loop_gflops(k)
             print("  the iteration loop alone (every lane busy): %.1f GFLOP/s per core%s; the render %s %% of it"
