@@ -126,9 +126,7 @@ typedef struct {
     int phase, sample;
     int width, height; /* region tiled: the hit buffer (UB_PHASE_TRACE) or the film */
     int tile, tiles_x, tile_count;
-    /* The tiles in `stripes` runs of stripe_length, one run per worker (tile_of_ticket). */
-    int stripes, stripe_length;
-    int next_tile;  /* atomic: the next ticket to hand out */
+    int next_tile;  /* atomic: next tile to hand out */
     int tiles_done; /* atomic */
     /* Film jobs with clear_unfinished: 1 per tile finished before any cancel; else NULL. */
     unsigned char *tile_finished;
@@ -165,28 +163,13 @@ static void mark_finished(ub_pool *pool, int t)
         pool->tile_finished[t] = 1;
 }
 
-/* The tile (row-major index) of ticket n, or -1 for none: the tiles in row-major order are cut
- * into one run per worker, and ticket n takes the next tile of run n % stripes. Workers taking
- * turns then each go along a run of their own, far from the others': two threads on side by side
- * tiles would pass cache lines back and forth where each row of the passes crosses their common
- * edge (the caller's rows need not start on a line), and along its run a thread keeps row-major
- * order's locality (the next tile continues the same rows, pages and memory streams). */
-static int tile_of_ticket(const ub_pool *pool, int n)
-{
-    int t = (n % pool->stripes) * pool->stripe_length + n / pool->stripes;
-    return t < pool->tile_count ? t : -1;
-}
-
 /* A worker's share of the current job: tiles until none is left or the render is cancelled. */
 static void work_on_job(ub_pool *pool, ub_counters *cnt)
 {
     while (!__atomic_load_n(pool->scene->cancel, __ATOMIC_RELAXED)) {
-        int ticket = __atomic_fetch_add(&pool->next_tile, 1, __ATOMIC_RELAXED);
-        if (ticket >= pool->stripes * pool->stripe_length)
+        int t = __atomic_fetch_add(&pool->next_tile, 1, __ATOMIC_RELAXED);
+        if (t >= pool->tile_count)
             break;
-        int t = tile_of_ticket(pool, ticket);
-        if (t < 0)
-            continue;
         int ty, ty1;
         tile_rows(pool, t, &ty, &ty1);
         run_tile(pool, t, ty, ty1, cnt);
@@ -291,8 +274,6 @@ static void run_job(ub_pool *pool, int started, const ub_render_options *opt, in
 {
     pool->tiles_x = (pool->width + pool->tile - 1) / pool->tile;
     pool->tile_count = pool->tiles_x * ((pool->height + pool->tile - 1) / pool->tile);
-    pool->stripes = started > 1 ? started : 1;
-    pool->stripe_length = (pool->tile_count + pool->stripes - 1) / pool->stripes;
     pool->next_tile = 0;
     pool->tiles_done = 0;
     if (pool->tile_finished)
