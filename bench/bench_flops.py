@@ -151,8 +151,8 @@ def main():
         if k in peaks:
             print("  measured FMA peak %.1f GFLOP/s per core: %s %% of it (the march's iterations alone: %s %%)" % (
                 peaks[k], med([100.0 * g / peaks[k] for g in gflops]), med([100.0 * g / peaks[k] for g in march])))
-            # The two halves of that median apart: a second thread in the same process shares the
-            # machine's caches and the film's memory with the first (bench/README.md).
+            # The two halves of that median apart: on some hosts a second thread in the same
+            # process costs CPU that a second process does not (bench/README.md, 2026-12-04).
             print("  of the peak: 1 thread %s %%, 2 threads %s %%" % tuple(
                 med([100.0 * g / peaks[k] for g in gflops[i * len(one):(i + 1) * len(one)]]) for i in (0, 1)))
         if args.ceiling:

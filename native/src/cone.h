@@ -96,8 +96,8 @@ static double camera_speed(const ub_camera *cam)
  * HUGE_VAL where the cone is as wide as its axis is long (no t is certain). Without branches, so
  * that a lane loop over it is vector code: the other cases' values (a root of a negative number,
  * a division by 0) are computed and not chosen. */
-static inline __attribute__((always_inline)) double cone_leaves_ball(const double origin[3], const double axis[3], double spread0, double spread1,
-                                      const double centre[3], double radius)
+static inline __attribute__((always_inline)) double cone_leaves_ball(const double origin[3], const double axis[3],
+        double spread0, double spread1, const double centre[3], double radius)
 {
     const double rel[3] = {origin[0] - centre[0], origin[1] - centre[1], origin[2] - centre[2]};
     const double R = radius + spread0;
