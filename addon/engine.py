@@ -239,7 +239,7 @@ class BandBuffers:
         for name, channels in wanted.items():
             kept = cls._kept.get(name)
             buffers[name] = kept if kept is not None and kept.shape == (rows, width, channels) else \
-                np.empty((rows, width, channels), np.float32)
+                utils.native().pass_array(rows, width, channels)
         cls._kept.clear()
         cls._kept.update(buffers)
         return buffers
@@ -385,9 +385,9 @@ def _render_frame(engine, depsgraph, times):
     try:
         layer, views, present = result_passes(result)
         # Zeros: what a cancelled first sample did not reach stays transparent black.
-        buffers = {p.native: np.zeros((h, w, p.channels), np.float32) for p in present}
+        buffers = {p.native: core.pass_array(h, w, p.channels, zero=True) for p in present}
         # Depth is always rendered: the core's precision check reads it (one float per pixel).
-        buffers.setdefault("depth", np.zeros((h, w, 1), np.float32))
+        buffers.setdefault("depth", core.pass_array(h, w, 1, zero=True))
         # The sum of the samples done, kept while the next one is added (a cancel mid-sample leaves
         # the buffers half summed): only the averaged passes, only with several samples.
         summed = [n for n in buffers if n not in passes.SAMPLE_ZERO] if samples > 1 else []

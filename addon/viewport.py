@@ -278,7 +278,7 @@ class Session:
         core = utils.native()
         x0, y0, w, h = req.window
         samples = req.shading["samples"]
-        image = np.zeros((h, w, 4), np.float32)
+        image = core.pass_array(h, w, 4, zero=True)
         options = dict(threads=req.threads, tile_size=req.tile_size, simd=req.simd, background=req.background,
                        world=req.world.texels if req.world is not None else None,
                        shading=req.shading, cancel=cancel, poll_interval=POLL_INTERVAL)
@@ -297,7 +297,7 @@ class Session:
             if ox >= w or oy >= h:
                 return True
             cols, rows = -(-(w - ox) // stride), -(-(h - oy) // stride)
-            part = np.empty((rows, cols, 4), np.float32)
+            part = core.pass_array(rows, cols, 4)
             if not render({"combined": part}, window=(x0 + ox, y0 + oy, cols, rows), stride=stride,
                           sample_range=(0, 1)):
                 return False

@@ -52,7 +52,9 @@ elif scene != "peer":
     _, _, over, shading = [c for c in fx.CASES if c[0] == scene][0]
     obj = dict(obj, **over)
     names = uc.PASSES if scene == "all" else names
-p = {n: np.zeros((H, W, uc.PASS_CHANNELS[n]), np.float32) for n in names}
+# Passes on cache lines as the add-on's (unbound_core.pass_array); older builds lack it.
+new_pass = getattr(uc, "pass_array", lambda h, w, c: np.zeros((h, w, c), np.float32))
+p = {n: new_pass(H, W, uc.PASS_CHANNELS[n]) for n in names}
 uc.render(cam, [obj], p, shading=shading, threads=threads, simd=simd, world=world)
 c0 = time.process_time()
 uc.render(cam, [obj], p, shading=shading, threads=threads, simd=simd, world=world)

@@ -94,7 +94,7 @@ def to_u8(linear):
 def run_native(width, height, threads, names=("combined", "alpha", "depth")):
     cam = camera(width, height)
     c0, t0 = time.process_time(), time.perf_counter()
-    passes = {n: np.zeros((height, width, uc.PASS_CHANNELS[n]), np.float32) for n in names}
+    passes = {n: uc.pass_array(height, width, uc.PASS_CHANNELS[n], zero=True) for n in names}
     stats = uc.render(cam, [OBJECT], passes, threads=threads)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return dict(stats, wall_s=wall, cpu_s=cpu), passes

@@ -67,7 +67,7 @@ def measured_peaks(kernels):
 
 def render(width, height, threads, simd):
     cam = bench_core.camera(width, height)
-    passes = {n: np.zeros((height, width, uc.PASS_CHANNELS[n]), np.float32) for n in ("combined", "alpha", "depth")}
+    passes = {n: uc.pass_array(height, width, uc.PASS_CHANNELS[n]) for n in ("combined", "alpha", "depth")}
     c0, t0 = time.process_time(), time.perf_counter()
     stats = uc.render(cam, [bench_core.OBJECT], passes, threads=threads, simd=simd)
     return (time.process_time() - c0, time.perf_counter() - t0, stats["iterations"] + stats["normal_iterations"],

@@ -24,6 +24,7 @@ from ._native import (  # noqa: F401
 )
 from . import same_bits  # noqa: F401
 from . import mesh  # noqa: F401,E402
+from .buffers import pass_array  # noqa: F401
 from .camera import look_at, orthographic, perspective  # noqa: F401
 
 __version__ = "0.1.0"
