@@ -65,9 +65,15 @@ def measured_peaks(kernels):
         return peaks
 
 
+_passes = {}
+
+
 def render(width, height, threads, simd):
     cam = bench_core.camera(width, height)
-    passes = {n: uc.pass_array(height, width, uc.PASS_CHANNELS[n]) for n in ("combined", "alpha", "depth")}
+    # Kept from one render to the next, as the add-on keeps its band buffers (engine.BandBuffers):
+    # fresh buffers from the allocator cost their page faults in some renders and not in others.
+    passes = _passes.setdefault((width, height), {n: uc.pass_array(height, width, uc.PASS_CHANNELS[n])
+                                                  for n in ("combined", "alpha", "depth")})
     c0, t0 = time.process_time(), time.perf_counter()
     stats = uc.render(cam, [bench_core.OBJECT], passes, threads=threads, simd=simd)
     return (time.process_time() - c0, time.perf_counter() - t0, stats["iterations"] + stats["normal_iterations"],
