@@ -90,9 +90,9 @@ typedef union {
          * (run_take, run_steal): atomic, as other workers cut runs too. */
         uint64_t run;
         int tiles_done; /* atomic: written by the worker, read for the progress */
-    } own;
+    };
     char line[256];
-} ub_thread_counters;
+} ub_worker_state;
 _Static_assert(sizeof(ub_counters) + 16 <= 128, "a worker's state fits 128 bytes of its 256");
 
 /* Counters before the first tile: zero, and no depth seen in any lane. */
@@ -121,7 +121,7 @@ static void ub_counters_add(ub_counters *total, const ub_counters *c)
 typedef struct {
     const ub_scene *scene;
     ub_tile_kernel kernel;
-    ub_thread_counters *per_thread;
+    ub_worker_state *per_thread;
     ub_mutex lock;
     ub_cond wake;     /* broadcast: a new job, or the render is over */
     ub_cond finished; /* signalled when a worker is done with the job */
@@ -194,12 +194,12 @@ static int run_take(uint64_t *run)
  * run of one) as its own run; returns 0 when every run is empty. */
 static int run_steal(ub_pool *pool, int worker)
 {
-    uint64_t *own = &pool->per_thread[worker].own.run;
+    uint64_t *own = &pool->per_thread[worker].run;
     for (;;) {
         int victim = -1;
         uint32_t most = 0;
         for (int w = 0; w < pool->workers; w++) {
-            uint32_t left = run_left(__atomic_load_n(&pool->per_thread[w].own.run, __ATOMIC_RELAXED));
+            uint32_t left = run_left(__atomic_load_n(&pool->per_thread[w].run, __ATOMIC_RELAXED));
             if (w != worker && left > most) {
                 most = left;
                 victim = w;
@@ -207,7 +207,7 @@ static int run_steal(ub_pool *pool, int worker)
         }
         if (victim < 0)
             return 0;
-        uint64_t *run = &pool->per_thread[victim].own.run;
+        uint64_t *run = &pool->per_thread[victim].run;
         uint64_t r = __atomic_load_n(run, __ATOMIC_RELAXED);
         uint32_t next = (uint32_t)r, end = (uint32_t)(r >> 32);
         if (end <= next)
@@ -225,13 +225,13 @@ static int run_steal(ub_pool *pool, int worker)
  * one queue of tiles: with one queue two threads mostly work on side by side tiles, and they
  * pass cache lines back and forth where each row of the passes crosses their common edge (a
  * caller's rows need not start on a line) and where a core's prefetchers run on along the rows
- * into the other's tile; along a run of its own a thread meets its own lines (issue 21: 2 threads
- * took 3-4 % more CPU than 1 thread on the peer scene with one queue, about 1 % with runs). */
+ * into the other's tile; along a run of its own a thread meets its own lines (issue 21: on the
+ * peer scene 2 threads took 2.6-5 % more CPU than 1 thread with one queue, 0-1 % with runs). */
 static void work_on_job(ub_pool *pool, int worker)
 {
-    ub_thread_counters *own = &pool->per_thread[worker];
+    ub_worker_state *me = &pool->per_thread[worker];
     while (!__atomic_load_n(pool->scene->cancel, __ATOMIC_RELAXED)) {
-        int t = run_take(&own->own.run);
+        int t = run_take(&me->run);
         if (t < 0) {
             if (!run_steal(pool, worker))
                 break;
@@ -239,9 +239,9 @@ static void work_on_job(ub_pool *pool, int worker)
         }
         int ty, ty1;
         tile_rows(pool, t, &ty, &ty1);
-        run_tile(pool, t, ty, ty1, &own->own.counters);
+        run_tile(pool, t, ty, ty1, &me->counters);
         mark_finished(pool, t);
-        __atomic_store_n(&own->own.tiles_done, own->own.tiles_done + 1, __ATOMIC_RELEASE);
+        __atomic_store_n(&me->tiles_done, me->tiles_done + 1, __ATOMIC_RELEASE);
     }
 }
 
@@ -250,7 +250,7 @@ static int tiles_done(const ub_pool *pool)
 {
     int done = 0;
     for (int w = 0; w < pool->workers; w++)
-        done += __atomic_load_n(&pool->per_thread[w].own.tiles_done, __ATOMIC_ACQUIRE);
+        done += __atomic_load_n(&pool->per_thread[w].tiles_done, __ATOMIC_ACQUIRE);
     return done;
 }
 
@@ -329,7 +329,7 @@ static void run_job_on_caller(ub_pool *pool, const ub_render_options *opt, int j
         int ty, ty1;
         tile_rows(pool, t, &ty, &ty1);
         for (int y = ty; y < ty1 && !__atomic_load_n(cancel, __ATOMIC_RELAXED); y++) {
-            run_tile(pool, t, y, y + 1, &pool->per_thread[0].own.counters);
+            run_tile(pool, t, y, y + 1, &pool->per_thread[0].counters);
             double now = ub_monotonic_seconds();
             if (opt->poll && now - last_poll >= 1e-9 * (double)opt->poll_interval_ns) {
                 last_poll = now;
@@ -353,9 +353,9 @@ static void run_job(ub_pool *pool, int started, const ub_render_options *opt, in
     /* One run of row-major tiles a worker (work_on_job). */
     pool->workers = started;
     for (int w = 0; w < started; w++) {
-        pool->per_thread[w].own.run = run_of((uint32_t)((int64_t)pool->tile_count * w / started),
+        pool->per_thread[w].run = run_of((uint32_t)((int64_t)pool->tile_count * w / started),
                                              (uint32_t)((int64_t)pool->tile_count * (w + 1) / started));
-        pool->per_thread[w].own.tiles_done = 0;
+        pool->per_thread[w].tiles_done = 0;
     }
     if (pool->tile_finished)
         memset(pool->tile_finished, 0, (size_t)pool->tile_count);
@@ -508,7 +508,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     int cones_ok = cone_cache_alloc(scene_in, &hb, opt->shared_steps, &cones);
     scene.cones = cones.start ? &cones : NULL;
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
-    ub_thread_counters *per_thread = calloc((size_t)threads, sizeof(ub_thread_counters));
+    ub_worker_state *per_thread = calloc((size_t)threads, sizeof(ub_worker_state));
     ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
     /* The tiles the first sample finished, when a cancel there is to clear the others: marked
      * during sample 0's film job only, so a cancel in a later sample finds them all marked. */
@@ -519,7 +519,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
                          * ((film->h + opt->tile_size - 1) / opt->tile_size);
     unsigned char *finished = clearing ? calloc((size_t)film_tiles, 1) : NULL;
     for (int i = 0; per_thread && i < threads; i++)
-        ub_counters_start(&per_thread[i].own.counters);
+        ub_counters_start(&per_thread[i].counters);
     if (!per_thread || !workers || (apron && !hb.hits) || !cones_ok || (clearing && !finished)) {
         free(per_thread);
         free(workers);
@@ -552,7 +552,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     pool_stop(&pool, workers, started);
     stats->seconds = ub_monotonic_seconds() - t0;
     for (int i = 0; i < threads; i++)
-        ub_counters_add(&stats->counters, &per_thread[i].own.counters);
+        ub_counters_add(&stats->counters, &per_thread[i].counters);
     stats->threads = started ? started : 1;
     stats->isa = ub_isa_names[kernel];
     stats->cancelled = __atomic_load_n(scene.cancel, __ATOMIC_RELAXED) != 0;
