@@ -4,11 +4,12 @@
     depth = unbound_core.pass_array(height, width, 1, zero=True)
 
 render() takes any C-contiguous float32 buffer, but numpy puts a large array's data 16 bytes past
-a cache line (the allocator's header), so each thread's tile shares its first and last line of
-every row with the neighbouring tiles: two threads writing either side of a tile edge pass those
-lines back and forth between their cores. Measured on the peer scene (1280x1024, combined, alpha
-and depth, 2 threads, AVX-512, an AMD Zen 4): 2.3-2.6 % more CPU than into arrays that start on
-a line (issue 21); 1 thread: no difference."""
+a cache line (the allocator's header), so a tile shares its first and last line of every row
+with the neighbouring tiles, and where two threads write either side of a tile edge they pass
+those lines back and forth between their cores. Measured on the peer scene (1280x1024, combined,
+alpha and depth, AVX-512, an AMD Zen 4; issue 21): on 2 threads 2-2.6 % more CPU into numpy's
+arrays than into arrays that start on a line (with one queue of tiles and with a run of tiles a
+thread alike); on 1 thread no difference."""
 
 CACHE_LINE = 64
 
