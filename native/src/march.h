@@ -435,7 +435,7 @@ static inline __attribute__((always_inline)) void julia_estimates(const ub_de_pa
     } else {
         /* Out of line (de_julia), not inlined as the pair's loop is: this copy of the loop in each
          * of the pairs' steps made the compiler spill more of the march's state in the pair's
-         * own path (issue 21: peer scene 1.025x with AVX-512, "everything" 1.019x, "world"
+         * own path (issue 21: peer scene 1.028x with AVX-512, "everything" 1.019x, "world"
          * 1.036x; AVX2 the same; same bits). */
         const int k = busy1;
         de_julia(dp, lanes[k], z[k][0], z[k][1], z[k][2], z[k][3], &dist[k], &iters[k]);
