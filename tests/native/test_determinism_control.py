@@ -25,11 +25,11 @@ def test_identical_bytes_for_any_threads_tiles_and_simd():
             assert stats[k] == ref_stats[k]
 
 
-
 @pytest.mark.parametrize("shape", [(61, 97, 4), (37, 61, 1), (1, 1, 3), (0, 5, 4)])
 def test_pass_array_starts_on_a_line_and_renders_the_same_bytes(shape):
     """unbound_core.pass_array: float32, C-contiguous, the data on a 64-byte line (whatever numpy's
-    allocator gives; an empty array has no data), zeros when asked; the core renders the same bytes into it as into numpy's."""
+    allocator gives; an empty array has no data), zeros when asked; the core renders the same bytes
+    into it as into numpy's."""
     for zero in (False, True):
         a = uc.pass_array(*shape, zero=zero)
         assert a.shape == shape and a.dtype == np.float32 and a.flags["C_CONTIGUOUS"] and a.flags["WRITEABLE"]
@@ -45,6 +45,7 @@ def test_pass_array_starts_on_a_line_and_renders_the_same_bytes(shape):
     uc.render(cam, [OBJ], mine, threads=2, tile_size=8)
     for n in ref:
         assert ref[n].tobytes() == mine[n].tobytes(), n
+
 
 def test_window_equals_crop_of_full_image():
     """Render borders and tiles: a window renders exactly the matching pixels of the full image."""
