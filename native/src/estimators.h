@@ -102,19 +102,6 @@ static inline vm orbit_step(const ub_de_params *p, const int want, vm active, vf
     return m_andnot(v_gt(nr2, p->bail2), active);
 }
 
-/* One step of f(z) = z^2 + mu on z = (a, b, c, d), given 2b, 2c, 2d and |v|^2 = b^2 + c^2 + d^2 of
- * z: the new z. 2ab + mu1 as fma(a, 2b, mu1), not fma(2a, b, mu1): the same
- * number (doubling is exact and an fma rounds only once, after the exact product), but a reaches
- * the new b through one fma instead of an add and an fma. The loop-carried path a -> b -> b^2 -> a
- * sets the pace of the loops; it is 4 cycles shorter (issue 21; 2b, 2c, 2d are carried). */
-static inline void quaternion_square_step(const vf mu[4], vf a, vf b2, vf c2, vf d2, vf v2, vf z[4])
-{
-    z[0] = v_sub(v_fma(a, a, mu[0]), v2);
-    z[1] = v_fma(a, b2, mu[1]);
-    z[2] = v_fma(a, c2, mu[2]);
-    z[3] = v_fma(a, d2, mu[3]);
-}
-
 /* |v|^2 and |z|^2 of z = (a, b, c, d). */
 static inline void quaternion_norms(const vf z[4], vf *v2, vf *r2)
 {
@@ -188,8 +175,13 @@ static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de
                         j[k][c4] = v_mul(j[k][c4], s);
             }
         }
-        /* quaternion_square_step, written out: through its array this loop measured 2-3 %
-         * slower on the peer scene (GCC schedules the latency-bound chain differently). */
+        /* One step of f(z) = z^2 + mu, given 2b, 2c, 2d and |v|^2 = b^2 + c^2 + d^2 of z. 2ab + mu1
+         * as fma(a, 2b, mu1), not fma(2a, b, mu1): the same number (doubling is exact and an fma
+         * rounds only once, after the exact product), but a reaches the new b through one fma
+         * instead of an add and an fma. The loop-carried path a -> b -> b^2 -> a sets the pace of
+         * the loop; it is 4 cycles shorter (issue 21; 2b, 2c, 2d are carried). Written out, not
+         * through a helper filling an array: that measured 2-3 % slower on the peer scene (GCC
+         * schedules the latency-bound chain differently). */
         vf na = v_sub(v_fma(a, a, mu[0]), v2);
         vf nb = v_fma(a, b2, mu[1]);
         vf nc = v_fma(a, c2, mu[2]);
@@ -677,7 +669,7 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
     for (int it = 0; it < p->max_iterations && m_bits(m_or(active[0], active[1])); it++) {
         for (int k = 0; k < 2; k++) {
             /* 2ab + mu as fma(2a, b, mu): one doubling instead of three (2a b = a 2b exactly, so
-             * the same bits as quaternion_square_step's fma(a, 2b, mu)). The pair is bound by
+             * the same bits as de_quaternion_body's fma(a, 2b, mu)). The pair is bound by
              * the ports, not by the longer path through 2a. */
             vf nz[4], nr2, a2 = v_add(q[k][0], q[k][0]);
             nz[0] = v_sub(v_fma(q[k][0], q[k][0], p->mu[0]), v2[k]);
