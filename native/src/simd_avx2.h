@@ -46,19 +46,24 @@ static inline vf v_select(vm m, vf a, vf b) { return _mm256_blendv_ps(b, a, m); 
 /* a + (m ? 1 : 0) */
 static inline vf v_count(vf a, vm m) { return _mm256_add_ps(a, _mm256_and_ps(m, _mm256_set1_ps(1.0f))); }
 
-/* Split positive normal x into mantissa m in [sqrt(1/2), sqrt(2)) and exponent e: x = m 2^e. */
-static inline void v_frexp_centered(vf x, vf *m, vf *e)
+/* v_log's reduction (estimators.h): x = 2^k z with z in [0.699, 1.398), and the table entries
+ * invc[i], logc[i] of z's interval i (its top mantissa bits, glibc logf's layout); a 16-entry
+ * table as two 8-entry permutes, bit 3 of i choosing between them. */
+static inline vf v_table16(const float table[16], __m256i i, vf upper)
 {
-    __m256i xi = _mm256_castps_si256(x);
-    __m256i ei = _mm256_sub_epi32(_mm256_srli_epi32(xi, 23), _mm256_set1_epi32(127));
-    __m256i mi = _mm256_or_si256(_mm256_and_si256(xi, _mm256_set1_epi32(0x007fffff)),
-                                 _mm256_set1_epi32(0x3f800000));
-    vf mf = _mm256_castsi256_ps(mi); /* [1, 2) */
-    vm big = _mm256_cmp_ps(mf, _mm256_set1_ps(1.41421356f), _CMP_GT_OQ);
-    mf = _mm256_blendv_ps(mf, _mm256_mul_ps(mf, _mm256_set1_ps(0.5f)), big);
-    ei = _mm256_add_epi32(ei, _mm256_and_si256(_mm256_castps_si256(big), _mm256_set1_epi32(1)));
-    *m = mf;
-    *e = _mm256_cvtepi32_ps(ei);
+    return _mm256_blendv_ps(_mm256_permutevar8x32_ps(_mm256_loadu_ps(table), i),
+                            _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 8), i), upper);
+}
+static inline void v_log_reduce(vf x, const float invc[16], const float logc[16], vf *z, vf *k, vf *ic, vf *lc)
+{
+    const __m256i xi = _mm256_castps_si256(x);
+    const __m256i t = _mm256_sub_epi32(xi, _mm256_set1_epi32(0x3f330000));
+    const __m256i i = _mm256_srli_epi32(t, 19); /* its low 4 bits: permutevar reads the low 3 */
+    const vf upper = _mm256_castsi256_ps(_mm256_slli_epi32(i, 28)); /* bit 3 of i as the sign */
+    *z = _mm256_castsi256_ps(_mm256_sub_epi32(xi, _mm256_and_si256(t, _mm256_set1_epi32((int)0xff800000u))));
+    *k = _mm256_cvtepi32_ps(_mm256_srai_epi32(t, 23));
+    *ic = v_table16(invc, i, upper);
+    *lc = v_table16(logc, i, upper);
 }
 
 /* Doubles for the deep zoom's estimate (zoom_lanes.h): 4 per vector, two per packet. Only IEEE

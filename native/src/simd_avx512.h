@@ -43,18 +43,17 @@ static inline vf v_select(vm m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, 
 /* a + (m ? 1 : 0) */
 static inline vf v_count(vf a, vm m) { return _mm512_mask_add_ps(a, m, a, _mm512_set1_ps(1.0f)); }
 
-/* Split positive normal x into mantissa m in [sqrt(1/2), sqrt(2)) and exponent e: x = m 2^e. */
-static inline void v_frexp_centered(vf x, vf *m, vf *e)
+/* v_log's reduction (estimators.h): x = 2^k z with z in [0.699, 1.398), and the table entries
+ * invc[i], logc[i] of z's interval i (its top mantissa bits, glibc logf's layout). */
+static inline void v_log_reduce(vf x, const float invc[16], const float logc[16], vf *z, vf *k, vf *ic, vf *lc)
 {
-    __m512i xi = _mm512_castps_si512(x);
-    __m512i ei = _mm512_sub_epi32(_mm512_srli_epi32(xi, 23), _mm512_set1_epi32(127));
-    __m512i mi = _mm512_or_si512(_mm512_and_si512(xi, _mm512_set1_epi32(0x007fffff)), _mm512_set1_epi32(0x3f800000));
-    vf mf = _mm512_castsi512_ps(mi); /* [1, 2) */
-    __mmask16 big = _mm512_cmp_ps_mask(mf, _mm512_set1_ps(1.41421356f), _CMP_GT_OQ);
-    mf = _mm512_mask_mul_ps(mf, big, mf, _mm512_set1_ps(0.5f));
-    ei = _mm512_mask_add_epi32(ei, big, ei, _mm512_set1_epi32(1));
-    *m = mf;
-    *e = _mm512_cvtepi32_ps(ei);
+    const __m512i xi = _mm512_castps_si512(x);
+    const __m512i t = _mm512_sub_epi32(xi, _mm512_set1_epi32(0x3f330000));
+    const __m512i i = _mm512_and_si512(_mm512_srli_epi32(t, 19), _mm512_set1_epi32(15));
+    *z = _mm512_castsi512_ps(_mm512_sub_epi32(xi, _mm512_and_si512(t, _mm512_set1_epi32((int)0xff800000u))));
+    *k = _mm512_cvtepi32_ps(_mm512_srai_epi32(t, 23));
+    *ic = _mm512_permutexvar_ps(i, _mm512_loadu_ps(invc));
+    *lc = _mm512_permutexvar_ps(i, _mm512_loadu_ps(logc));
 }
 
 /* Doubles for the deep zoom's estimate (zoom_lanes.h): 8 per vector, two per packet. Only IEEE

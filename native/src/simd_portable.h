@@ -51,21 +51,21 @@ static inline vm m_from_bits(int bits) { vm r; V_LOOP(i) r.v[i] = (bits >> i) & 
 static inline vf v_select(vm m, vf a, vf b) { V_LOOP(i) a.v[i] = m.v[i] ? a.v[i] : b.v[i]; return a; }
 static inline vf v_count(vf a, vm m) { V_LOOP(i) a.v[i] = a.v[i] + (m.v[i] ? 1.0f : 0.0f); return a; }
 
-static inline void v_frexp_centered(vf x, vf *m, vf *e)
+/* v_log's reduction (estimators.h): x = 2^k z with z in [0.699, 1.398), and the table entries
+ * invc[i], logc[i] of z's interval i (its top mantissa bits, glibc logf's layout). */
+static inline void v_log_reduce(vf x, const float invc[16], const float logc[16], vf *z, vf *k, vf *ic, vf *lc)
 {
-    V_LOOP(i) {
-        uint32_t bits;
-        memcpy(&bits, &x.v[i], 4);
-        int32_t ex = (int32_t)(bits >> 23) - 127;
-        uint32_t mb = (bits & 0x007fffffu) | 0x3f800000u;
-        float mf;
-        memcpy(&mf, &mb, 4);
-        if (mf > 1.41421356f) {
-            mf = mf * 0.5f;
-            ex += 1;
-        }
-        m->v[i] = mf;
-        e->v[i] = (float)ex;
+    V_LOOP(l) {
+        uint32_t xi, zi;
+        memcpy(&xi, &x.v[l], 4);
+        const uint32_t t = xi - 0x3f330000u, i = (t >> 19) & 15u;
+        zi = xi - (t & 0xff800000u);
+        memcpy(&z->v[l], &zi, 4);
+        /* the arithmetic shift of t as a signed word, spelled without one */
+        const int32_t e = (int32_t)(t >> 23) - ((t & 0x80000000u) ? 512 : 0);
+        k->v[l] = (float)e;
+        ic->v[l] = invc[i];
+        lc->v[l] = logc[i];
     }
 }
 
