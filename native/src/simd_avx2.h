@@ -46,19 +46,20 @@ static inline vf v_select(vm m, vf a, vf b) { return _mm256_blendv_ps(b, a, m); 
 /* a + (m ? 1 : 0) */
 static inline vf v_count(vf a, vm m) { return _mm256_add_ps(a, _mm256_and_ps(m, _mm256_set1_ps(1.0f))); }
 
-/* v_log's reduction (estimators.h): x = 2^k z with z in [0.699, 1.398), and the table entries
- * invc[i], logc[i] of z's interval i (its top mantissa bits, glibc logf's layout); a 16-entry
- * table as two 8-entry permutes, bit 3 of i choosing between them. */
+/* table[i] of a 16-entry table per lane (i in the low 4 bits): two 8-entry permutes (they read the
+ * low 3 bits), bit 3 of i (the sign bit of `upper`) choosing between them. */
 static inline vf v_table16(const float table[16], __m256i i, vf upper)
 {
     return _mm256_blendv_ps(_mm256_permutevar8x32_ps(_mm256_loadu_ps(table), i),
                             _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 8), i), upper);
 }
+/* v_log's reduction (estimators.h): x = 2^k z with z in [0.699, 1.398), and the table entries
+ * invc[i], logc[i] of z's interval i (its top mantissa bits, glibc logf's layout). */
 static inline void v_log_reduce(vf x, const float invc[16], const float logc[16], vf *z, vf *k, vf *ic, vf *lc)
 {
     const __m256i xi = _mm256_castps_si256(x);
     const __m256i t = _mm256_sub_epi32(xi, _mm256_set1_epi32(0x3f330000));
-    const __m256i i = _mm256_srli_epi32(t, 19); /* its low 4 bits: permutevar reads the low 3 */
+    const __m256i i = _mm256_srli_epi32(t, 19); /* the interval in its low 4 bits */
     const vf upper = _mm256_castsi256_ps(_mm256_slli_epi32(i, 28)); /* bit 3 of i as the sign */
     *z = _mm256_castsi256_ps(_mm256_sub_epi32(xi, _mm256_and_si256(t, _mm256_set1_epi32((int)0xff800000u))));
     *k = _mm256_cvtepi32_ps(_mm256_srai_epi32(t, 23));
