@@ -2,16 +2,18 @@
  * against the vf/vm vector interface; included by kernel.h, compiled once per SIMD flavour. */
 
 /* Natural logarithm of positive normal floats, within 1.8 ulp (1.71 the most measured, just below
- * the interval around 1; 1.09 for the escape estimate's x > 16), from a 16-entry table (the
- * layout of glibc's logf): x = 2^k z with z in [0.699, 1.398) cut into 16 intervals by its top mantissa
- * bits; interval i holds 1/c_i (invc, a float) and -log(invc_i) (logc), so that
- * log x = k log 2 + logc_i + log1p(r), r = z invc_i - 1, |r| < 0.032 (one fma: r is z invc_i - 1
- * rounded once). The interval around 1 has invc = 1, logc = 0: there r = z - 1 exactly and log x
- * keeps its relative accuracy near 1. log1p(r) to degree 5 (the next term, r^6 / 6, is below 2^-27
- * of r). Our own, built from the interface's exact integer steps and correctly rounded float
- * operations, so every kernel agrees. Issue 21: the march's step waits on this logarithm (the
- * escape estimate); against Cephes' polynomial of degree 8 (26 vector operations) it is 18, with
- * a shorter chain: the peer render 1.05x faster with AVX-512, 1.02x with AVX2. */
+ * the interval around 1; 1.09 for the escape estimate's x > 16), from a 16-entry table (the layout
+ * of glibc's logf): x = 2^k z with z in [0.699, 1.398) cut into 16 intervals by its top mantissa
+ * bits; interval i holds invc_i = 1/c_i rounded to float (c_i its midpoint) and logc_i =
+ * -log(invc_i) rounded to float, so that log x = k log 2 + logc_i + log1p(r), r = z invc_i - 1,
+ * |r| < 0.032 (one fma: r is z invc_i - 1 rounded once). The interval around 1 has invc = 1,
+ * logc = 0: there r = z - 1 exactly and log x keeps its relative accuracy near 1. log1p(r) to
+ * degree 5 (the next term, r^6 / 6, is below 2^-27 of r). The tables are constants, written in
+ * hexadecimal, not computed at start-up: a platform's libm log could round them differently. Our
+ * own, built from the interface's exact integer steps and correctly rounded float operations, so
+ * every kernel agrees. Issue 21: the march's step waits on this logarithm (the escape estimate);
+ * against Cephes' polynomial of degree 8 (26 vector operations) it is 18, with a shorter chain:
+ * the peer render 1.05x faster with AVX-512, 1.02x with AVX2. */
 static const float ub_log_invc[16] = {
     0x1.661ec6p+0f, 0x1.571ed4p+0f, 0x1.49539ep+0f, 0x1.3c995ap+0f, 0x1.30d19p+0f, 0x1.25e228p+0f,
     0x1.1bb4a4p+0f, 0x1.12358ep+0f, 0x1.0953f4p+0f, 0x1p+0f, 0x1.e573acp-1f, 0x1.ca4b3p-1f, 0x1.b20364p-1f,
