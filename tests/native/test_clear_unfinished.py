@@ -73,9 +73,12 @@ def test_without_the_flag_a_cancel_leaves_the_buffers_as_they_were():
 
 
 def test_a_cancel_after_the_first_sample_keeps_its_sums():
-    """With several samples the film holds the sums of the samples done: never cleared."""
-    shading = dict(SHADING, samples=2)
-    stats, passes = render(shading=shading, cancel_at=0.75, clear_unfinished=True)
+    """With several samples the film holds the sums of the samples done: never cleared. Four
+    samples, cancelled at 30 % of the render: in the second sample (the first sample's job ends
+    below 25 %), with three samples' time left for the progress poll to see it, so a caller thread
+    kept off the CPU for a while still cancels (with two samples and 75 % it once missed)."""
+    shading = dict(SHADING, samples=4)
+    stats, passes = render(shading=shading, cancel_at=0.3, clear_unfinished=True)
     assert stats["cancelled"]
     assert not np.isnan(passes["combined"]).any()
     assert all(passes["combined"][t][..., 3].any() for t in tiles())   # alpha 1 (background) or a hit's
