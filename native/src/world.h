@@ -456,16 +456,18 @@ static void world_sample_rays(const ub_scene *sc, const sample_point *sp, const 
     int drawing = 0;
     double r1[UB_LANES], r2[UB_LANES], azimuth[UB_LANES], sine[UB_LANES], cosine[UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
-        r1[l] = r2[l] = 0.0;
-        if (!((lanes >> l) & 1))
-            continue;
-        const ub_bounce_density *bd = bounces && bounces[l].scale > 0.0 ? &bounces[l] : NULL;
-        if ((bd && technique == 1) || (constant && !bd && technique == 0))
-            continue;
-        int dim = ((bounce * N + s) * 2 + technique) * 2;
-        r1[l] = random_uniform(pix->px[l], pix->py[l], sp->index, dim);
-        r2[l] = random_uniform(pix->px[l], pix->py[l], sp->index, dim + 1);
-        drawing |= 1 << l;
+        const int bd = bounces && bounces[l].scale > 0.0;
+        const int skip = (bd && technique == 1) || (constant && !bd && technique == 0);
+        drawing |= (((lanes >> l) & 1) && !skip) << l;
+    }
+    /* Every lane's numbers, then the drawing lanes' kept: integer hashes in a loop without
+     * branches, vector code. */
+    const int dim = ((bounce * N + s) * 2 + technique) * 2;
+    for (int l = 0; l < UB_LANES; l++) {
+        const double u1 = random_uniform(pix->px[l], pix->py[l], sp->index, dim);
+        const double u2 = random_uniform(pix->px[l], pix->py[l], sp->index, dim + 1);
+        r1[l] = (drawing >> l) & 1 ? u1 : 0.0;
+        r2[l] = (drawing >> l) & 1 ? u2 : 0.0;
     }
     if (technique == 1 && drawing) {
         for (int l = 0; l < UB_LANES; l++)
