@@ -5,6 +5,7 @@ import os
 import time
 import traceback
 
+import bpy
 import numpy as np
 
 from . import composite, export, frame_memory, motion_blur, passes, utils
@@ -144,6 +145,10 @@ def memory_preflight(width, height, wanted, views=1, samples=1, tile_size=32):
 # take at most this share of the render's time so far: a 1080p render whose samples take longer
 # than a few tenths of a second shows every one, and a quick small one is never slowed by them.
 UPDATE_SHARE = 0.05
+# Blender without a window (blender --background, a farm, the bpy module) shows no image while it
+# renders, so there the uploads are skipped, as Cycles skips its display updates in the background;
+# True uploads there too (the tests of the uploads, which run in the bpy module).
+UPDATE_IN_BACKGROUND = False
 # The stats line is refreshed at most this often while a sample renders (seconds).
 STATS_INTERVAL = 0.25
 
@@ -395,9 +400,13 @@ def _render_frame(engine, depsgraph, times):
         progress = Progress(engine, label, len(views), samples)
         totals = dict(rays=0, steps=0, iterations=0, out_of_steps=0, seconds=0.0)
         camera_rays = 0  # of the result's pixels, every sample and view rendered
-        options = dict(window=window, shading=shading, poll_interval=0.02, **export.render_options(scene))
+        # A sample a call: the shared first steps are marched by the first and kept for the others
+        # (the core marches them again where the camera or the objects move, with motion blur).
+        options = dict(window=window, shading=shading, poll_interval=0.02,
+                       shared_steps_cache=core.shared_steps_cache(), **export.render_options(scene))
         started = time.perf_counter()
         uploading = 0.0
+        shows_samples = UPDATE_IN_BACKGROUND or not bpy.app.background
         stats = None
         cancelled = False
 
@@ -447,7 +456,7 @@ def _render_frame(engine, depsgraph, times):
                                    force=True) and done < samples:
                     cancelled = True  # the samples done are whole: kept
                     break
-                if done < samples and uploading <= UPDATE_SHARE * (time.perf_counter() - started):
+                if done < samples and shows_samples and uploading <= UPDATE_SHARE * (time.perf_counter() - started):
                     # The Image Editor shows the samples done while the next ones render.
                     t0 = time.perf_counter()
                     write(view, done)

@@ -281,7 +281,10 @@ class Session:
         image = core.pass_array(h, w, 4, zero=True)
         options = dict(threads=req.threads, tile_size=req.tile_size, simd=req.simd, background=req.background,
                        world=req.world.texels if req.world is not None else None,
-                       shading=req.shading, cancel=cancel, poll_interval=POLL_INTERVAL)
+                       shading=req.shading, cancel=cancel, poll_interval=POLL_INTERVAL,
+                       # The shared first steps of one call kept for the next (the samples after the
+                       # first: the same view, the same blocks).
+                       shared_steps_cache=core.shared_steps_cache())
 
         def render(passes, **kw):
             stats = core.render(req.camera, req.objects, passes, **kw, **options)

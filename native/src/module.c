@@ -773,18 +773,43 @@ static int parse_world(PyObject *o, Py_buffer *view, ub_world *world)
     return 0;
 }
 
+/* shared_steps_cache(): the cones of one render kept for its next call (render.h, ub_kept_cones). */
+#define SHARED_STEPS_CACHE "unbound_core.shared_steps_cache"
+
+static void shared_steps_cache_free(PyObject *capsule)
+{
+    ub_kept_cones_free(PyCapsule_GetPointer(capsule, SHARED_STEPS_CACHE));
+}
+
+static PyObject *py_shared_steps_cache(PyObject *self, PyObject *noargs)
+{
+    ub_kept_cones *kept = ub_kept_cones_new();
+    if (!kept)
+        return PyErr_NoMemory();
+    PyObject *capsule = PyCapsule_New(kept, SHARED_STEPS_CACHE, shared_steps_cache_free);
+    if (!capsule)
+        ub_kept_cones_free(kept);
+    return capsule;
+}
+
 static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *kwlist[] = {"camera", "objects", "passes", "window", "threads", "tile_size", "simd",
                              "progress", "cancel", "background", "poll_interval", "shading", "stride",
-                             "sample_range", "world", "shared_steps", "clear_unfinished", NULL};
+                             "sample_range", "world", "shared_steps", "clear_unfinished", "shared_steps_cache", NULL};
     PyObject *camera_o, *objects_o, *passes_o, *progress = Py_None, *cancel = Py_None, *shading_o = NULL;
-    PyObject *world_o = Py_None;
+    PyObject *world_o = Py_None, *cache_o = Py_None;
     PyObject *kw[10] = {NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO|$OOOOOOOOOOOOOOO", kwlist, &camera_o, &objects_o, &passes_o,
                                      &kw[0], &kw[1], &kw[2], &kw[3], &progress, &cancel, &kw[4], &kw[5],
-                                     &shading_o, &kw[6], &kw[7], &world_o, &kw[8], &kw[9]))
+                                     &shading_o, &kw[6], &kw[7], &world_o, &kw[8], &kw[9], &cache_o))
         return NULL;
+    ub_kept_cones *kept_cones = NULL;
+    if (cache_o != Py_None && !(kept_cones = PyCapsule_GetPointer(cache_o, SHARED_STEPS_CACHE))) {
+        PyErr_Clear();
+        PyErr_SetString(PyExc_TypeError, "shared_steps_cache must be an object of shared_steps_cache() or None");
+        return NULL;
+    }
     static const char *const kw_names[10] = {"window", "threads", "tile_size", "simd", "background",
                                              "poll_interval", "stride", "sample_range", "shared_steps",
                                              "clear_unfinished"};
@@ -824,6 +849,7 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
         PyErr_SetString(PyExc_TypeError, "cancel must have an is_set() method (e.g. threading.Event) or be None");
         goto done;
     }
+    opt.kept_cones = kept_cones;
     if (parse_passes(passes_o, &film, views, have))
         goto done;
     if (world_o != Py_None) {
@@ -1407,10 +1433,16 @@ static PyMethodDef methods[] = {
      "the bounding ball); 'vertices' (float32 x3), 'faces' (int32 x3, counter-clockwise from outside), 'trap', "
      "'iterations', 'estimate' (float32 per vertex) as read-only memoryviews of the core's own buffers (no copy), and statistics. Pieces with fewer than min_faces "
      "faces are removed. Same bytes for any thread count. See unbound_core.mesh"},
+    {"shared_steps_cache", py_shared_steps_cache, METH_NOARGS,
+     "shared_steps_cache() -> an object for render(shared_steps_cache=...): the shared first steps (one cone per "
+     "8x8 pixels, marched once) of one call kept for the next, so a render of several samples rendered a sample a "
+     "call (sample_range) marches them once. Reused only where the camera, objects, sea and blocks are the same, "
+     "else replaced; the same pixels either way (stats count the cones' iterations where they are marched). One "
+     "render at a time uses it (another one at the same time marches its own)."},
     {"render", (PyCFunction)(void (*)(void))py_render, METH_VARARGS | METH_KEYWORDS,
      "render(camera, objects, passes, *, window=None, threads=0, tile_size=32, simd='auto', progress=None, "
      "cancel=None, background=(0, 0, 0, 0), poll_interval=0.01, shading=None, stride=1, sample_range=None, "
-     "world=None, shared_steps=1, clear_unfinished=False) "
+     "world=None, shared_steps=1, clear_unfinished=False, shared_steps_cache=None) "
      "-> stats dict. stride s renders the image pixels (x + s i, y + s j) of window (x, y, columns, rows) "
      "only; sample_range (first, count) renders those samples into buffers holding the earlier ones' sum. "
      "After a cancel (stats['cancelled']) the passes are partial: with several samples, undivided sums of "

@@ -446,6 +446,94 @@ static void cone_cache_free(ub_cone_cache *c)
     c->ready = NULL;
 }
 
+struct ub_kept_cones {
+    int busy;            /* atomic: 1 while a render holds them */
+    ub_cone_cache cones; /* start NULL: none kept */
+    /* What the kept cones were marched for: the cones read nothing else (cone.h). */
+    ub_camera camera;
+    ub_object *objects;
+    int object_count;
+    int sea;
+    double sea_height;
+};
+
+ub_kept_cones *ub_kept_cones_new(void)
+{
+    return calloc(1, sizeof(ub_kept_cones));
+}
+
+static void kept_cones_forget(ub_kept_cones *kept)
+{
+    cone_cache_free(&kept->cones);
+    free(kept->objects);
+    kept->objects = NULL;
+    kept->object_count = 0;
+}
+
+void ub_kept_cones_free(ub_kept_cones *kept)
+{
+    if (kept) {
+        kept_cones_forget(kept);
+        free(kept);
+    }
+}
+
+/* Whether the kept cones are those of this render: the same blocks, and the same bytes of
+ * everything a cone's march reads (the records are zeroed before they are filled, padding too). */
+static int kept_cones_match(const ub_kept_cones *kept, const ub_scene *sc, const ub_cone_cache *c)
+{
+    const ub_cone_cache *k = &kept->cones;
+    return k->start && k->bx0 == c->bx0 && k->by0 == c->by0 && k->nbx == c->nbx && k->nby == c->nby
+        && kept->object_count == sc->object_count && kept->sea == sc->shading->sea
+        && (!kept->sea || kept->sea_height == sc->shading->sea_height)
+        && !memcmp(&kept->camera, sc->camera, sizeof kept->camera)
+        && !memcmp(kept->objects, sc->objects, (size_t)sc->object_count * sizeof *sc->objects);
+}
+
+/* The render's cones: the kept ones instead of the fresh (empty) ones c where they match. Returns
+ * whether they did. */
+static int kept_cones_take(ub_kept_cones *kept, const ub_scene *sc, ub_cone_cache *c)
+{
+    if (!c->start || !kept_cones_match(kept, sc, c))
+        return 0;
+    cone_cache_free(c);
+    *c = kept->cones;
+    memset(&kept->cones, 0, sizeof kept->cones);
+    return 1;
+}
+
+/* After the render: its cones (complete or not, each block's start is final once ready) kept for
+ * the next call, with what they were marched for (copied unless they were the kept ones). */
+static void kept_cones_give_back(ub_kept_cones *kept, const ub_scene *sc, ub_cone_cache *c, int taken)
+{
+    if (!taken) {
+        kept_cones_forget(kept);
+        size_t bytes = (size_t)sc->object_count * sizeof *sc->objects;
+        kept->objects = c->start && sc->object_count ? malloc(bytes) : NULL;
+        if (!kept->objects) { /* nothing to keep, or no memory to keep it with */
+            cone_cache_free(c);
+            return;
+        }
+        memcpy(kept->objects, sc->objects, bytes);
+        kept->object_count = sc->object_count;
+        kept->camera = *sc->camera;
+        kept->sea = sc->shading->sea;
+        kept->sea_height = sc->shading->sea_height;
+    }
+    kept->cones = *c;
+    memset(c, 0, sizeof *c);
+}
+
+/* The render's end: its cones to `kept` (NULL: freed) and `kept` free for the next render. */
+static void kept_cones_release(ub_kept_cones *kept, const ub_scene *sc, ub_cone_cache *c, int taken)
+{
+    if (kept) {
+        kept_cones_give_back(kept, sc, c, taken);
+        __atomic_store_n(&kept->busy, 0, __ATOMIC_RELEASE);
+    }
+    cone_cache_free(c);
+}
+
 /* Zeroes every pass of the film over the tiles of the film's grid not marked in `finished` (all of
  * them when the film job never ran): what a render cancelled in its first sample did not reach
  * is transparent black, as if the caller had cleared its buffers before the render. */
@@ -506,6 +594,10 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     scene.hits = &hb;
     ub_cone_cache cones;
     int cones_ok = cone_cache_alloc(scene_in, &hb, opt->shared_steps, &cones);
+    /* The kept cones, unless another render holds them now. */
+    ub_kept_cones *kept = opt->kept_cones && !__atomic_exchange_n(&opt->kept_cones->busy, 1, __ATOMIC_ACQUIRE)
+                              ? opt->kept_cones : NULL;
+    const int taken = kept && kept_cones_take(kept, scene_in, &cones);
     scene.cones = cones.start ? &cones : NULL;
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
     ub_worker_state *per_thread = calloc((size_t)threads, sizeof(ub_worker_state));
@@ -525,7 +617,7 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         free(workers);
         free(finished);
         hit_buffer_give_back(hb.hits);
-        cone_cache_free(&cones);
+        kept_cones_release(kept, scene_in, &cones, taken);
         return "out of memory (the image is too large for this machine)";
     }
     double t0 = ub_monotonic_seconds();
@@ -562,6 +654,6 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     free(per_thread);
     free(workers);
     hit_buffer_give_back(hb.hits);
-    cone_cache_free(&cones);
+    kept_cones_release(kept, scene_in, &cones, taken);
     return NULL;
 }

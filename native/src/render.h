@@ -7,6 +7,14 @@
 /* The kernels (ub_isa_names: "auto", "avx2", "portable", "avx512"); every one gives the same bits. */
 typedef enum { UB_ISA_AUTO = 0, UB_ISA_AVX2, UB_ISA_PORTABLE, UB_ISA_AVX512 } ub_isa;
 
+/* Shared first steps kept from one render call to the next (issue 21): an F12 render of several
+ * samples calls ub_render once a sample, and without them each call marched every block's cone
+ * again (3 % of such a render). Used by one render at a time; reused only where everything the
+ * cones depend on (camera, objects, sea, blocks) is the same bytes, else replaced. */
+typedef struct ub_kept_cones ub_kept_cones;
+ub_kept_cones *ub_kept_cones_new(void);
+void ub_kept_cones_free(ub_kept_cones *kept);
+
 typedef struct {
     int threads;     /* 0: one per CPU */
     int tile_size;   /* pixels per tile side */
@@ -25,6 +33,7 @@ typedef struct {
      * finished (render.c, clear_unfinished_tiles): the caller's buffers need no clearing before a
      * render that may be cancelled. */
     int clear_unfinished;
+    ub_kept_cones *kept_cones; /* NULL: the cones of this call alone */
 } ub_render_options;
 
 typedef struct {

@@ -20,6 +20,7 @@ from ._native import (  # noqa: F401
     lens_sample,
     normals,
     render,
+    shared_steps_cache,
     zoom_anchor_move,
 )
 from . import same_bits  # noqa: F401

@@ -23,6 +23,14 @@ def test_samples_are_shown_as_they_finish(run_bpy):
     assert r["last"]["samples_done"] == 8 and not r["last"]["cancelled"], r["last"]
 
 
+def test_no_uploads_in_the_background(run_bpy):
+    """Issue 21: Blender without a window shows no image, so a render of several samples uploads
+    none before its end (as Cycles in the background): the same passes, the uploads' CPU saved."""
+    r = run_bpy("f12.no_uploads_in_the_background", args={"samples": 8})
+    assert r["background"] and r["updates"] == [0, 7], r["updates"]
+    assert len(r["identical"]) >= 12 and all(r["identical"].values()), r["identical"]
+
+
 def test_esc_keeps_the_samples_done(run_bpy):
     r = run_bpy("f12.esc_keeps_the_samples_done", args={"samples": 8, "at": 0.5})
     assert r["stats"]["cancelled"] and r["breaks"] >= 1, r["stats"]

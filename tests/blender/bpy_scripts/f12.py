@@ -111,15 +111,36 @@ def samples_shown_as_they_finish(S, mod, samples=8):
     scene = scene_with_samples(S, 240, 180, samples)
     spies, restore = spied(mod)
     share, mod.engine.UPDATE_SHARE = mod.engine.UPDATE_SHARE, 1.0
+    mod.engine.UPDATE_IN_BACKGROUND = True  # the bpy module is Blender in the background
     try:
         final = read_passes(S, scene, "progressive.exr")
     finally:
         mod.engine.UPDATE_SHARE = share
+        mod.engine.UPDATE_IN_BACKGROUND = False
         restore()
     spy = spies[0]
     S.report(stats=spy.stats, progress=spy.progress, updates=spy.updates,
              final_rgb_sum=float(sum(final["ViewLayer.Combined.%s" % c].sum() for c in "RGB")),
              last=dict(mod.engine.LAST_STATS))
+
+
+def no_uploads_in_the_background(S, mod, samples=8):
+    """Blender in the background (the bpy module) shows no image: no sample is uploaded before the
+    end, even with the uploads' share lifted to 1; the final passes are those of a render that
+    uploads every sample."""
+    scene = scene_with_samples(S, 240, 180, samples)
+    spies, restore = spied(mod)
+    share, mod.engine.UPDATE_SHARE = mod.engine.UPDATE_SHARE, 1.0
+    try:
+        quiet = read_passes(S, scene, "quiet.exr")
+        mod.engine.UPDATE_IN_BACKGROUND = True
+        shown = read_passes(S, scene, "shown.exr")
+    finally:
+        mod.engine.UPDATE_SHARE = share
+        mod.engine.UPDATE_IN_BACKGROUND = False
+        restore()
+    S.report(background=bool(bpy.app.background), updates=[len(spy.updates) for spy in spies],
+             identical={k: bool(np.array_equal(quiet[k], shown[k])) for k in shown})
 
 
 def esc_keeps_the_samples_done(S, mod, samples=8, at=0.5, motion_blur=False):
