@@ -818,8 +818,9 @@ static PyObject *py_render(PyObject *self, PyObject *args, PyObject *kwargs)
     /* As many object records as given (parse_objects refuses more than UB_MAX_OBJECTS): a record
      * holds a zoomed object's reference orbits (about 90 KB), so not UB_MAX_OBJECTS of them. */
     Py_ssize_t given = PyList_Check(objects_o) || PyTuple_Check(objects_o) ? PySequence_Size(objects_o) : 0;
-    ub_object *objs = PyMem_Calloc(given < 1 ? 1 : given > UB_MAX_OBJECTS ? UB_MAX_OBJECTS : (size_t)given,
-                                   sizeof(ub_object));
+    /* Not zeroed here: ub_object_from_input zeroes each record it fills (624 KB each). */
+    ub_object *objs = PyMem_Malloc((given < 1 ? 1 : given > UB_MAX_OBJECTS ? UB_MAX_OBJECTS : (size_t)given)
+                                   * sizeof(ub_object));
     ub_shading *shading = PyMem_Calloc(1, sizeof(ub_shading));
     PyObject *render_kw = PyDict_New();
     Py_buffer views[UB_PASS_COUNT], world_view;

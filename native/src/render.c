@@ -73,8 +73,16 @@ void ub_fp_leave(uint64_t previous)
 
 int ub_cpu_count(void)
 {
-    int n = ub_online_cpus();
-    return n > UB_MAX_THREADS ? UB_MAX_THREADS : n;
+    /* Read once: sysconf opens and reads /sys/devices/system/cpu/online on Linux, 40 us a call
+     * on a cold cache, every frame of an animation (issue 21); Blender reads its count once too. */
+    static int cached;
+    int n = __atomic_load_n(&cached, __ATOMIC_RELAXED);
+    if (!n) {
+        n = ub_online_cpus();
+        n = n > UB_MAX_THREADS ? UB_MAX_THREADS : n;
+        __atomic_store_n(&cached, n, __ATOMIC_RELAXED);
+    }
+    return n;
 }
 
 static void cone_cache_free(ub_cone_cache *c);
