@@ -56,6 +56,7 @@ static inline void ub_cond_init(ub_cond *c) { InitializeConditionVariable(c); }
 static inline void ub_cond_destroy(ub_cond *c) { (void)c; }
 static inline void ub_cond_signal(ub_cond *c) { WakeConditionVariable(c); }
 static inline void ub_cond_broadcast(ub_cond *c) { WakeAllConditionVariable(c); }
+static inline void ub_cond_wait(ub_cond *c, ub_mutex *m) { SleepConditionVariableSRW(c, m, INFINITE, 0); }
 /* Waits at most `ns` nanoseconds (rounded up to whole milliseconds, Windows' unit). */
 static inline void ub_cond_wait_ns(ub_cond *c, ub_mutex *m, int64_t ns)
 {
@@ -91,6 +92,7 @@ static inline void ub_mutex_unlock(ub_mutex *m) { pthread_mutex_unlock(m); }
 static inline void ub_cond_destroy(ub_cond *c) { pthread_cond_destroy(c); }
 static inline void ub_cond_signal(ub_cond *c) { pthread_cond_signal(c); }
 static inline void ub_cond_broadcast(ub_cond *c) { pthread_cond_broadcast(c); }
+static inline void ub_cond_wait(ub_cond *c, ub_mutex *m) { pthread_cond_wait(c, m); }
 #if defined(__APPLE__)
 /* macOS has no pthread_condattr_setclock, but a wait with a relative timeout. */
 static inline void ub_cond_init(ub_cond *c) { pthread_cond_init(c, NULL); }

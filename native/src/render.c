@@ -124,8 +124,8 @@ static void ub_counters_add(ub_counters *total, const ub_counters *c)
         total->nearest_lanes[l] = fminf(total->nearest_lanes[l], c->nearest_lanes[l]);
 }
 
-/* The render's threads, started once per render (issue 21: not once per phase) and handed one job
- * after another: a phase of a sample, cut into tiles. */
+/* The render's threads (a crew's, below: kept between renders; issue 21), handed one job after
+ * another: a phase of a sample, cut into tiles. */
 typedef struct {
     const ub_scene *scene;
     ub_tile_kernel kernel;
@@ -133,7 +133,7 @@ typedef struct {
     ub_mutex lock;
     ub_cond wake;     /* broadcast: a new job, or the render is over */
     ub_cond finished; /* signalled when a worker is done with the job */
-    int job_number;   /* guarded by lock: the current job's; every worker runs every job once */
+    unsigned job_number; /* guarded by lock: the current job's; every worker runs every job once */
     int over;         /* guarded by lock: no more jobs, workers exit */
     int busy;         /* guarded by lock: workers not yet done with the current job */
     /* The current job, written by the calling thread while no worker is busy. */
@@ -148,12 +148,24 @@ typedef struct {
 typedef struct {
     ub_pool *pool;
     int index;
+    unsigned first_job; /* the job number when the thread was started: its first job is the next one */
     ub_thread thread;
 } ub_worker;
 
-/* How long an idle worker sleeps before it looks again (a wake-up is broadcast; this is only a
- * bound should one be missed). */
-#define UB_IDLE_WAIT_NS ((int64_t)100000000)
+/* The workers, kept from one render to the next (issue 21): a render's threads started and joined
+ * cost 0.1-0.2 ms of CPU a thread and call (the clone, the stack pages glibc hands back at a
+ * thread's exit faulted in again, the TLB shootdowns), 1 % of an animation frame at 640x360 and
+ * more of the viewport's many small calls and of F12's bands. One crew is kept; a render takes it
+ * by atomic exchange (a render beside it, the viewport beside F12, gets a crew of its own, whose
+ * threads end with it) and starts threads as it needs more. Between renders the workers sleep on
+ * a condition variable, with no timeout: no CPU at all. */
+typedef struct {
+    ub_pool pool;
+    ub_worker workers[UB_MAX_THREADS];
+    int started;
+} ub_crew;
+
+static ub_crew *kept_crew;
 
 static void run_tile(ub_pool *pool, int t, int y0, int y1, ub_counters *cnt)
 {
@@ -262,19 +274,23 @@ static int tiles_done(const ub_pool *pool)
     return done;
 }
 
+/* A worker runs every job of the renders that hold its crew, once, where its index is below the
+ * job's worker count (a render may use fewer threads than the crew has), until the crew ends. */
 UB_THREAD_ENTRY(worker_main, arg)
 {
     ub_worker *w = arg;
     ub_pool *pool = w->pool;
     uint64_t fp = ub_fp_enter();
-    int last_job = 0;
+    unsigned last_job = w->first_job;
     ub_mutex_lock(&pool->lock);
     for (;;) {
         while (!pool->over && pool->job_number == last_job)
-            ub_cond_wait_ns(&pool->wake, &pool->lock, UB_IDLE_WAIT_NS);
+            ub_cond_wait(&pool->wake, &pool->lock);
         if (pool->over)
             break;
         last_job = pool->job_number;
+        if (w->index >= pool->workers)
+            continue;
         ub_mutex_unlock(&pool->lock);
         work_on_job(pool, w->index);
         ub_mutex_lock(&pool->lock);
@@ -286,33 +302,68 @@ UB_THREAD_ENTRY(worker_main, arg)
     UB_THREAD_RETURN;
 }
 
-/* Starts up to `threads` workers; returns how many started (0: the calling thread renders). */
-static int pool_start(ub_pool *pool, ub_worker *workers, int threads)
+#if !defined(_WIN32)
+/* A child of fork() has none of its parent's threads: it forgets the kept crew (its memory stays
+ * with the child, unused). */
+static void crew_forget_in_child(void)
 {
-    ub_mutex_init(&pool->lock);
-    ub_cond_init(&pool->wake);
-    ub_cond_init(&pool->finished);
-    int started = 0;
-    for (int i = 0; i < threads; i++) {
-        workers[started].pool = pool;
-        workers[started].index = started;
-        if (ub_thread_start(&workers[started].thread, worker_main, &workers[started]))
-            started++;
+    kept_crew = NULL;
+}
+#endif
+
+/* The kept crew, or a new one (NULL only when out of memory), with up to `threads` workers
+ * started; crew->started may stay below (no thread could be created: the calling thread renders). */
+static ub_crew *crew_take(int threads)
+{
+    ub_crew *crew = __atomic_exchange_n(&kept_crew, NULL, __ATOMIC_ACQ_REL);
+    if (!crew) {
+#if !defined(_WIN32)
+        static int atfork_set;
+        if (!__atomic_exchange_n(&atfork_set, 1, __ATOMIC_ACQ_REL))
+            pthread_atfork(NULL, NULL, crew_forget_in_child);
+#endif
+        crew = calloc(1, sizeof *crew);
+        if (!crew)
+            return NULL;
+        ub_mutex_init(&crew->pool.lock);
+        ub_cond_init(&crew->pool.wake);
+        ub_cond_init(&crew->pool.finished);
     }
-    return started;
+    while (crew->started < threads) {
+        ub_worker *w = &crew->workers[crew->started];
+        w->pool = &crew->pool;
+        w->index = crew->started;
+        w->first_job = crew->pool.job_number; /* no job runs now: the crew is this render's */
+        if (!ub_thread_start(&w->thread, worker_main, w))
+            break;
+        crew->started++;
+    }
+    return crew;
 }
 
-static void pool_stop(ub_pool *pool, ub_worker *workers, int started)
+/* Ends a crew's threads and frees it. */
+static void crew_end(ub_crew *crew)
 {
+    ub_pool *pool = &crew->pool;
     ub_mutex_lock(&pool->lock);
     pool->over = 1;
     ub_cond_broadcast(&pool->wake);
     ub_mutex_unlock(&pool->lock);
-    for (int i = 0; i < started; i++)
-        ub_thread_join(workers[i].thread);
+    for (int i = 0; i < crew->started; i++)
+        ub_thread_join(crew->workers[i].thread);
     ub_cond_destroy(&pool->finished);
     ub_cond_destroy(&pool->wake);
     ub_mutex_destroy(&pool->lock);
+    free(crew);
+}
+
+/* After a render: its crew kept for the next one, unless one is kept already (a render beside it
+ * gave its crew back first), then this one ends. */
+static void crew_give_back(ub_crew *crew)
+{
+    ub_crew *none = NULL;
+    if (!__atomic_compare_exchange_n(&kept_crew, &none, crew, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
+        crew_end(crew);
 }
 
 static int report_progress(const ub_render_options *opt, double fraction, volatile int *cancel)
@@ -609,7 +660,6 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     scene.cones = cones.start ? &cones : NULL;
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
     ub_worker_state *per_thread = calloc((size_t)threads, sizeof(ub_worker_state));
-    ub_worker *workers = calloc((size_t)threads, sizeof(ub_worker));
     /* The tiles the first sample finished, when a cancel there is to clear the others: marked
      * during sample 0's film job only, so a cancel in a later sample finds them all marked. */
     const int first = opt->sample_count > 0 ? opt->first_sample : 0;
@@ -620,37 +670,43 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     unsigned char *finished = clearing ? calloc((size_t)film_tiles, 1) : NULL;
     for (int i = 0; per_thread && i < threads; i++)
         ub_counters_start(&per_thread[i].counters);
-    if (!per_thread || !workers || (apron && !hb.hits) || !cones_ok || (clearing && !finished)) {
+    /* No more workers than the hit buffer has tiles (the film has no more than it). */
+    int tiles = ((hb.w + opt->tile_size - 1) / opt->tile_size) * ((hb.h + opt->tile_size - 1) / opt->tile_size);
+    int wanted = threads < tiles ? threads : (tiles > 0 ? tiles : 1);
+    ub_crew *crew = per_thread ? crew_take(wanted) : NULL;
+    if (!per_thread || !crew || (apron && !hb.hits) || !cones_ok || (clearing && !finished)) {
+        if (crew)
+            crew_give_back(crew);
         free(per_thread);
-        free(workers);
         free(finished);
         hit_buffer_give_back(hb.hits);
         kept_cones_release(kept, scene_in, &cones, taken);
         return "out of memory (the image is too large for this machine)";
     }
     double t0 = ub_monotonic_seconds();
-    /* No more workers than the hit buffer has tiles (the film has no more than it). */
-    int tiles = ((hb.w + opt->tile_size - 1) / opt->tile_size) * ((hb.h + opt->tile_size - 1) / opt->tile_size);
-    ub_pool pool;
-    memset(&pool, 0, sizeof pool);
-    pool.scene = &scene;
-    pool.kernel = ub_tile_kernel_of(kernel);
-    pool.per_thread = per_thread;
-    pool.tile = opt->tile_size;
-    int started = pool_start(&pool, workers, threads < tiles ? threads : (tiles > 0 ? tiles : 1));
+    /* This render's jobs on the crew (no worker is busy between renders). */
+    ub_pool *pool = &crew->pool;
+    pool->scene = &scene;
+    pool->kernel = ub_tile_kernel_of(kernel);
+    pool->per_thread = per_thread;
+    pool->tile = opt->tile_size;
+    int started = crew->started < wanted ? crew->started : wanted;
     for (int s = first; s < first + count && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); s++) {
         for (int phase = 0; phase < phases && !__atomic_load_n(scene.cancel, __ATOMIC_RELAXED); phase++) {
-            pool.phase = phases == 1 ? UB_PHASE_TRACE_AND_SHADE : phase;
-            pool.tile_finished = s == 0 && pool.phase != UB_PHASE_TRACE ? finished : NULL;
-            pool.sample = s;
+            pool->phase = phases == 1 ? UB_PHASE_TRACE_AND_SHADE : phase;
+            pool->tile_finished = s == 0 && pool->phase != UB_PHASE_TRACE ? finished : NULL;
+            pool->sample = s;
             /* One phase: the hit buffer's grid is the film's. */
-            pool.width = pool.phase == UB_PHASE_TRACE ? hb.w : film->w;
-            pool.height = pool.phase == UB_PHASE_TRACE ? hb.h : film->h;
-            run_job(&pool, started, opt, phases * (s - first) + phase, phases * count);
+            pool->width = pool->phase == UB_PHASE_TRACE ? hb.w : film->w;
+            pool->height = pool->phase == UB_PHASE_TRACE ? hb.h : film->h;
+            run_job(pool, started, opt, phases * (s - first) + phase, phases * count);
         }
     }
-    pool_stop(&pool, workers, started);
     stats->seconds = ub_monotonic_seconds() - t0;
+    pool->tile_finished = NULL;
+    pool->per_thread = NULL;
+    pool->scene = NULL;
+    crew_give_back(crew);
     for (int i = 0; i < threads; i++)
         ub_counters_add(&stats->counters, &per_thread[i].counters);
     stats->threads = started ? started : 1;
@@ -660,7 +716,6 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
         clear_unfinished_tiles(film, opt->tile_size, finished);
     free(finished);
     free(per_thread);
-    free(workers);
     hit_buffer_give_back(hb.hits);
     kept_cones_release(kept, scene_in, &cones, taken);
     return NULL;
