@@ -61,7 +61,12 @@ SAME_WORKERS = textwrap.dedent("""
 """)
 
 
+# The subprocess tests: under qemu-user (tests/platforms) the interpreter cannot start another.
+no_child_under_qemu = pytest.mark.skipif(EMULATED, reason="qemu-user runs no child interpreter here")
+
+
 @linux_only
+@no_child_under_qemu
 def test_the_next_render_starts_no_thread():
     """The same workers (thread ids) in every render of a process: none started, none ended
     (in a process of its own: threads of other tests come and go)."""
@@ -134,6 +139,7 @@ CHILD = textwrap.dedent("""
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork()")
+@no_child_under_qemu
 def test_a_child_of_fork_renders():
     code = CHILD % dict(tests=str(ROOT / "tests" / "native"),
                         core=os.environ.get("UNBOUND_CORE_PATH") or str(ROOT / "build" / "wheel"))
