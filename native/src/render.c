@@ -410,7 +410,6 @@ static void run_job(ub_pool *pool, int started, const ub_render_options *opt, in
     pool->tiles_x = (pool->width + pool->tile - 1) / pool->tile;
     pool->tile_count = pool->tiles_x * ((pool->height + pool->tile - 1) / pool->tile);
     /* One run of row-major tiles a worker (work_on_job). */
-    pool->workers = started;
     for (int w = 0; w < started; w++) {
         pool->per_thread[w].run = run_of((uint32_t)((int64_t)pool->tile_count * w / started),
                                              (uint32_t)((int64_t)pool->tile_count * (w + 1) / started));
@@ -423,6 +422,9 @@ static void run_job(ub_pool *pool, int started, const ub_render_options *opt, in
         return;
     }
     ub_mutex_lock(&pool->lock);
+    /* The job's worker count with its number, under the lock: a worker of the crew left out of
+     * the last job may wake only now, and must not read the next job's count for the last one. */
+    pool->workers = started;
     pool->busy = started;
     pool->job_number++;
     ub_cond_broadcast(&pool->wake);
