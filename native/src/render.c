@@ -474,21 +474,27 @@ static void hit_buffer_give_back(ub_hit *hits)
     free(__atomic_exchange_n(&spare_hit_block, block, __ATOMIC_ACQ_REL));
 }
 
-/* The blocks of shared first steps (issue 21) under the hit buffer's pixels, all not yet
- * computed; none (start NULL) where the cone does not apply: panoramic cameras (rays not
+/* The grid of blocks of shared first steps (issue 21) under the hit buffer's pixels into c
+ * (cones not allocated: cone_cache_alloc); 0 where the cone does not apply: panoramic cameras (rays not
  * through a plane) and depth of field (rays from all over the lens), which keep their rays as
- * they were, and renders that ask for none (shared_steps 0). Returns 0 only when memory ran out. */
-static int cone_cache_alloc(const ub_scene *sc, const ub_hit_buffer *hb, int wanted, ub_cone_cache *c)
+ * they were, and renders that ask for none (shared_steps 0). */
+static int cone_grid(const ub_scene *sc, const ub_hit_buffer *hb, int wanted, ub_cone_cache *c)
 {
     memset(c, 0, sizeof *c);
     const ub_camera *cam = sc->camera;
     if (!wanted || cam->panorama != UB_PANORAMA_NONE || cam->aperture > 0.0 || sc->object_count == 0 || hb->w <= 0
         || hb->h <= 0)
-        return 1;
+        return 0;
     c->bx0 = hb->x0 / UB_CONE_BLOCK;
     c->by0 = hb->y0 / UB_CONE_BLOCK;
     c->nbx = (hb->x0 + hb->step * (hb->w - 1)) / UB_CONE_BLOCK - c->bx0 + 1;
     c->nby = (hb->y0 + hb->step * (hb->h - 1)) / UB_CONE_BLOCK - c->by0 + 1;
+    return 1;
+}
+
+/* The cones of c's grid (cone_grid), none computed yet; 0 when memory ran out. */
+static int cone_cache_alloc(ub_cone_cache *c)
+{
     size_t n = (size_t)c->nbx * (size_t)c->nby;
     c->start = malloc(n * sizeof *c->start);
     c->ready = calloc(n, sizeof *c->ready);
@@ -551,13 +557,12 @@ static int kept_cones_match(const ub_kept_cones *kept, const ub_scene *sc, const
         && !memcmp(kept->objects, sc->objects, (size_t)sc->object_count * sizeof *sc->objects);
 }
 
-/* The render's cones: the kept ones instead of the fresh (empty) ones c where they match. Returns
- * whether they did. */
+/* The render's cones (c: their grid, cone_grid): the kept ones where they match. Returns whether
+ * they did. */
 static int kept_cones_take(ub_kept_cones *kept, const ub_scene *sc, ub_cone_cache *c)
 {
-    if (!c->start || !kept_cones_match(kept, sc, c))
+    if (!kept_cones_match(kept, sc, c))
         return 0;
-    cone_cache_free(c);
     *c = kept->cones;
     memset(&kept->cones, 0, sizeof kept->cones);
     return 1;
@@ -653,12 +658,16 @@ const char *ub_render(const ub_scene *scene_in, const ub_render_options *opt, ub
     hb.hits = apron ? hit_buffer_take((size_t)hb.w * (size_t)hb.h) : NULL;
     ub_scene scene = *scene_in;
     scene.hits = &hb;
-    ub_cone_cache cones;
-    int cones_ok = cone_cache_alloc(scene_in, &hb, opt->shared_steps, &cones);
-    /* The kept cones, unless another render holds them now. */
+    /* The cones: the kept ones where they are this render's (unless another render holds them
+     * now), else fresh ones. */
     ub_kept_cones *kept = opt->kept_cones && !__atomic_exchange_n(&opt->kept_cones->busy, 1, __ATOMIC_ACQUIRE)
                               ? opt->kept_cones : NULL;
-    const int taken = kept && kept_cones_take(kept, scene_in, &cones);
+    ub_cone_cache cones;
+    int taken = 0, cones_ok = 1;
+    if (cone_grid(scene_in, &hb, opt->shared_steps, &cones)) {
+        taken = kept && kept_cones_take(kept, scene_in, &cones);
+        cones_ok = taken || cone_cache_alloc(&cones);
+    }
     scene.cones = cones.start ? &cones : NULL;
     int threads = opt->threads > 0 ? opt->threads : ub_cpu_count();
     ub_worker_state *per_thread = calloc((size_t)threads, sizeof(ub_worker_state));

@@ -57,27 +57,28 @@
 static inline uint64_t ub__bits(double x) { uint64_t b; memcpy(&b, &x, 8); return b; }
 static inline double ub__from_bits(uint64_t b) { double x; memcpy(&x, &b, 8); return x; }
 static inline double ub__nan(void) { return ub__from_bits(0x7ff8000000000000ull); }
+static inline double ub__inf(void) { return ub__from_bits(0x7ff0000000000000ull); }
+static inline int ub__is_nan(double x) { return x != x; }
 
 /* fmax and fmin written out, the same results (a NaN argument gives the other one): x86-64 GCC
  * calls libm for them unless -ffinite-math-only, which is a call per lane where the cones' loops
  * and the camera rays' start take them (issue 21: 1.5 % of the peer render). Two selects, not
- * `a > b || b != b ? a : b`: GCC 12 does not vectorise that `||` of two comparisons, so every
- * lane loop using these (the cones' corners and balls) stayed scalar code (issue 21: six more
+ * `a > b || ub__is_nan(b) ? a : b`: GCC 12 does not vectorise that `||` of two comparisons, so
+ * every lane loop using these (the cones' corners and balls) stayed scalar code (issue 21: six more
  * loops vectorised in each kernel; peer 1.014x, world 1.013x, "everything" 1.015x with AVX-512,
  * peer 1.021x with AVX2; the same bits). */
 static inline double ub_fmax(double a, double b)
 {
     const double larger = a > b ? a : b;
-    return b != b ? a : larger;
+    return ub__is_nan(b) ? a : larger;
 }
 
 static inline double ub_fmin(double a, double b)
 {
     const double smaller = a < b ? a : b;
-    return b != b ? a : smaller;
+    return ub__is_nan(b) ? a : smaller;
 }
-static inline double ub__inf(void) { return ub__from_bits(0x7ff0000000000000ull); }
-static inline int ub__is_nan(double x) { return x != x; }
+
 /* 2^n for -1022 <= n <= 1023, by its bits (exact). */
 static inline double ub__pow2(int n) { return ub__from_bits((uint64_t)(n + 1023) << 52); }
 
