@@ -132,12 +132,13 @@ static int read_choice(PyObject *o, const char *name, const char *const *choices
     const char *s = key_utf8(o, name, NULL);
     if (!s)
         return -1;
-    char names[ERRBUF] = "";
-    for (int i = 0; choices[i]; i++) {
+    for (int i = 0; choices[i]; i++)
         if (strcmp(s, choices[i]) == 0) {
             *out = i;
             return 0;
         }
+    char names[ERRBUF] = "";
+    for (int i = 0; choices[i]; i++) {
         size_t used = strlen(names);
         snprintf(names + used, sizeof names - used, "%s'%s'", i ? ", " : "", choices[i]);
     }
@@ -226,6 +227,83 @@ static int read_shaped(PyObject *o, const char *name, const ub_param *p, const c
     return rc;
 }
 
+/* The common values read without their names: a float or a tuple or list of floats (rows of
+ * them for a matrix) within the row's range, an int, a bool. 0 when read (the field filled), else
+ * -1 with nothing raised: read_value then reads the value again with its name and says what is
+ * wrong. Issue 21: names and messages were formatted for every value read, whether or not
+ * anything was wrong, a third of the CPU of parsing a render's parameters. */
+static int quick_floats(PyObject *o, int cols, double lo, double hi, double *out)
+{
+    const int tuple = PyTuple_Check(o);
+    if (!tuple && !PyList_Check(o))
+        return -1;
+    if ((tuple ? PyTuple_Size(o) : PyList_Size(o)) != cols)
+        return -1;
+    for (int i = 0; i < cols; i++) {
+        PyObject *x = tuple ? PyTuple_GetItem(o, i) : PyList_GetItem(o, i);
+        if (!x || !PyFloat_Check(x))
+            return -1;
+        const double v = PyFloat_AsDouble(x);
+        if (!isfinite(v) || !(v >= lo && v <= hi))
+            return -1;
+        out[i] = v;
+    }
+    return 0;
+}
+
+/* read_shaped's common values: a float, or rows of floats. */
+static int quick_shaped(PyObject *v, const ub_param *p, double *out)
+{
+    if (p->rows == 1 && p->cols == 1) {
+        if (!PyFloat_Check(v))
+            return -1;
+        const double x = PyFloat_AsDouble(v);
+        if (!isfinite(x) || !(x >= p->min && x <= p->max))
+            return -1;
+        *out = x;
+        return 0;
+    }
+    if (p->rows == 1)
+        return quick_floats(v, p->cols, p->min, p->max, out);
+    const int tuple = PyTuple_Check(v);
+    if ((!tuple && !PyList_Check(v)) || (tuple ? PyTuple_Size(v) : PyList_Size(v)) != p->rows)
+        return -1;
+    for (int r = 0; r < p->rows; r++) {
+        PyObject *row = tuple ? PyTuple_GetItem(v, r) : PyList_GetItem(v, r);
+        if (!row || quick_floats(row, p->cols, p->min, p->max, out + r * p->cols))
+            return -1;
+    }
+    return 0;
+}
+
+static int quick_value(PyObject *v, const ub_param *p, void *record)
+{
+    char *field = (char *)record + p->offset;
+    switch (p->type) {
+    case UB_PARAM_FLOAT:
+        return quick_shaped(v, p, (double *)field);
+    case UB_PARAM_INT: {
+        if (!PyLong_Check(v) || PyBool_Check(v))
+            return -1;
+        int overflow = 0;
+        const long long x = PyLong_AsLongLongAndOverflow(v, &overflow);
+        if ((x == -1 && PyErr_Occurred()) || overflow || x < p->min || x > p->max) {
+            PyErr_Clear();
+            return -1;
+        }
+        *(int *)field = (int)x;
+        return 0;
+    }
+    case UB_PARAM_BOOL:
+        if (!PyBool_Check(v))
+            return -1;
+        *(int *)field = v == Py_True;
+        return 0;
+    default:
+        return -1;
+    }
+}
+
 /* ---------------------------------------------------------------- sections */
 
 static int read_section(PyObject *o, const char *name, const ub_param_section *s, void *record, uint64_t *given);
@@ -281,9 +359,11 @@ static int read_list(PyObject *o, const char *name, const ub_param *p, const cha
     }
     char *items = (char *)record + p->offset;
     for (Py_ssize_t i = 0; i < n && !rc; i++) {
+        void *slot = items + i * p->item_size;
+        if (!p->items && !quick_shaped(PyTuple_GetItem(t, i), p, slot))
+            continue;
         char sub[ERRBUF];
         snprintf(sub, sizeof sub, "%s[%zd]", name, i);
-        void *slot = items + i * p->item_size;
         if (p->items)
             rc = read_section(PyTuple_GetItem(t, i), sub, p->items, slot, NULL);
         else
@@ -367,8 +447,6 @@ static int read_section(PyObject *o, const char *name, const ub_param_section *s
     int rc = check_keys(d, name, s);
     for (int i = 0; i < s->count && !rc; i++) {
         const ub_param *p = &s->rows[i];
-        char key_path[ERRBUF];
-        join(key_path, sizeof key_path, &w, p->key);
         PyObject *v = PyDict_GetItemString(d, p->key); /* borrowed from our own copy */
         if (!v) {
             if (p->flags & UB_PARAM_REQUIRED) {
@@ -379,7 +457,11 @@ static int read_section(PyObject *o, const char *name, const ub_param_section *s
         }
         if (v == Py_None && (p->flags & UB_PARAM_NONE_OK))
             continue;
-        rc = read_value(v, key_path, p, w.hint, record);
+        if (quick_value(v, p, record)) {
+            char key_path[ERRBUF];
+            join(key_path, sizeof key_path, &w, p->key);
+            rc = read_value(v, key_path, p, w.hint, record);
+        }
         if (!rc && given)
             *given |= (uint64_t)1 << i;
         if (!rc && p->type == UB_PARAM_STRING && strcmp(p->key, "name") == 0 && ((char *)record)[p->offset]) {

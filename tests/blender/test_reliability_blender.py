@@ -26,6 +26,7 @@ def test_memory_preflight_refuses_with_the_figure(run_bpy, how):
         in message, message
     assert "turn off passes (Normal, Position, Diffuse" in message, message
     assert r["small"] == ["ok", True], r
+    assert not r["again"][1] and "this render needs about 1327.1 GB" in r["again"][0], r["again"]
     # All passes, 36 channels. One sample (rendered in bands): Blender's result and its copy for
     # the compositor and writer (two float32 copies), and an eighth (rounded up) of the add-on's
     # buffers and the core's 20-byte hit record: 309 bytes per pixel, 1920 x 1080 about 0.64 GB.

@@ -46,7 +46,12 @@ def memory_preflight(S, mod, limit_gb=None):
     _, per_pixel_samples = mod.engine.memory_estimate(1920, 1080, mod.passes.enabled(vl), samples=8)
     scene.render.resolution_x, scene.render.resolution_y = 32, 24
     small = S.attempt(scene, "small.png")
-    S.report(big=big, small=small, per_pixel=per_pixel, needed=needed, per_pixel_samples=per_pixel_samples)
+    # At once after the small render (whose memory reading a quick next frame may use again): the
+    # big one still reads afresh and is refused (engine.READING_SHARE).
+    scene.render.resolution_x, scene.render.resolution_y = 65536, 65536
+    again = S.attempt(scene, "again.png")
+    S.report(big=big, small=small, again=again, per_pixel=per_pixel, needed=needed,
+             per_pixel_samples=per_pixel_samples)
 
 
 def passes_toggled_during_animation(S, mod):
