@@ -257,7 +257,10 @@ def slice_frame(offset, rotation):
     Returns (basis 4x3 as rows, origin 4)."""
     frame = [[1.0 if r == c else 0.0 for c in range(4)] for r in range(4)]  # columns: 1, i, j, k
     same_bits = utils.native().same_bits  # the core's sin and cos: the same slice on every platform
-    for axis, angle in enumerate(rotation):
+    # No rotation (the usual slice): turning the identity by angles 0 (cos 1, sin 0) leaves it the
+    # same bits, so the six calls into the core are skipped (issue 21: an animation frame reads
+    # this three times).
+    for axis, angle in enumerate(rotation if any(rotation) else ()):
         c, s = same_bits.cos(angle), same_bits.sin(angle)
         for r in range(4):
             a, k = frame[r][axis], frame[r][3]
