@@ -228,14 +228,15 @@ static int read_shaped(PyObject *o, const char *name, const ub_param *p, const c
 }
 
 /* The common values read without their names: a float or a tuple or list of floats (rows of
- * them for a matrix) within the row's range, an int, a bool. 0 when read (the field filled), else
+ * them for a matrix; exact tuples and lists, whose items are what snapshot() would take) within
+ * the row's range, an int, a bool. 0 when read (the field filled), else
  * -1 with nothing raised: read_value then reads the value again with its name and says what is
  * wrong. Issue 21: names and messages were formatted for every value read, whether or not
  * anything was wrong, a third of the CPU of parsing a render's parameters. */
 static int quick_floats(PyObject *o, int cols, double lo, double hi, double *out)
 {
-    const int tuple = PyTuple_Check(o);
-    if (!tuple && !PyList_Check(o))
+    const int tuple = PyTuple_CheckExact(o);
+    if (!tuple && !PyList_CheckExact(o))
         return -1;
     if ((tuple ? PyTuple_Size(o) : PyList_Size(o)) != cols)
         return -1;
@@ -265,8 +266,8 @@ static int quick_shaped(PyObject *v, const ub_param *p, double *out)
     }
     if (p->rows == 1)
         return quick_floats(v, p->cols, p->min, p->max, out);
-    const int tuple = PyTuple_Check(v);
-    if ((!tuple && !PyList_Check(v)) || (tuple ? PyTuple_Size(v) : PyList_Size(v)) != p->rows)
+    const int tuple = PyTuple_CheckExact(v);
+    if ((!tuple && !PyList_CheckExact(v)) || (tuple ? PyTuple_Size(v) : PyList_Size(v)) != p->rows)
         return -1;
     for (int r = 0; r < p->rows; r++) {
         PyObject *row = tuple ? PyTuple_GetItem(v, r) : PyList_GetItem(v, r);
