@@ -25,8 +25,8 @@ IFS = dict(kind="ifs", ifs_depth=5, max_iterations=8,
 
 
 def the_named_way(value):
-    """The same numbers in containers the quick path does not take: numpy arrays for sequences,
-    numpy float32-free float64 values through __float__ (np.float32 is no Python float)."""
+    """The same numbers in forms the quick path does not take: numpy arrays for sequences, and
+    np.float32 scalars (no Python float: read through __float__) for floats that float32 holds."""
     if isinstance(value, float):
         return np.float32(value) if float(np.float32(value)) == value else value
     if isinstance(value, (list, tuple)) and value and isinstance(value[0], (float, list, tuple)):
