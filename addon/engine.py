@@ -137,8 +137,8 @@ def memory_preflight(width, height, wanted, views=1, samples=1, tile_size=32):
     needed, per_pixel = memory_estimate(width, height, wanted, views, samples, tile_size)
     at, available = _last_reading
     now = time.perf_counter()
-    if at is not None and available is not None and now - at < READING_SECONDS and \
-            needed <= READING_SHARE * available and not os.environ.get("UNBOUND_MEMORY_LIMIT"):
+    if available is not None and now - at < READING_SECONDS and needed <= READING_SHARE * available \
+            and not os.environ.get("UNBOUND_MEMORY_LIMIT"):
         return
     available = memory_available()
     _last_reading[:] = [now, available]

@@ -51,8 +51,38 @@ static void set_value_error(const char *fmt, ...)
 
 /* ---------------------------------------------------------------- scalars */
 
+/* A float o, finite and within [lo, hi], into *out: 0, else -1 with nothing raised. The readers'
+ * common case without a name: read_double's first step, and the quick path's (quick_value). */
+static int float_in_range(PyObject *o, double lo, double hi, double *out)
+{
+    if (!o || !PyFloat_Check(o))
+        return -1;
+    const double v = PyFloat_AsDouble(o);
+    if (!isfinite(v) || !(v >= lo && v <= hi))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+/* An int o (a bool is one) within [lo, hi] into *out: 0, else -1 with nothing raised. */
+static int int_in_range(PyObject *o, double lo, double hi, int *out)
+{
+    if (!PyLong_Check(o))
+        return -1;
+    int overflow = 0;
+    const long long v = PyLong_AsLongLongAndOverflow(o, &overflow);
+    if ((v == -1 && PyErr_Occurred()) || overflow || v < lo || v > hi) {
+        PyErr_Clear();
+        return -1;
+    }
+    *out = (int)v;
+    return 0;
+}
+
 static int read_double(PyObject *o, const char *name, double lo, double hi, const char *hint, double *out)
 {
+    if (!float_in_range(o, lo, hi, out))
+        return 0;
     if (!PyFloat_Check(o) && !PyLong_Check(o) && !PyObject_HasAttrString(o, "__float__")) {
         PyErr_Format(PyExc_TypeError, "%s must be a number", name);
         return -1;
@@ -81,15 +111,10 @@ static int read_int(PyObject *o, const char *name, double lo, double hi, int *ou
         PyErr_Format(PyExc_TypeError, "%s must be an integer", name);
         return -1;
     }
-    int overflow = 0;
-    long long v = PyLong_AsLongLongAndOverflow(o, &overflow);
-    if (v == -1 && PyErr_Occurred())
-        return -1;
-    if (overflow || v < lo || v > hi) {
+    if (int_in_range(o, lo, hi, out)) {
         PyErr_Format(PyExc_ValueError, "%s must be in [%lld, %lld]", name, (long long)lo, (long long)hi);
         return -1;
     }
-    *out = (int)v;
     return 0;
 }
 
@@ -233,47 +258,40 @@ static int read_shaped(PyObject *o, const char *name, const ub_param *p, const c
  * -1 with nothing raised: read_value then reads the value again with its name and says what is
  * wrong. Issue 21: names and messages were formatted for every value read, whether or not
  * anything was wrong, a third of the CPU of parsing a render's parameters. */
+
+/* The length of an exact tuple or list, else -1 (other sequences go through snapshot()). */
+static Py_ssize_t exact_length(PyObject *o)
+{
+    return PyTuple_CheckExact(o) ? PyTuple_Size(o) : PyList_CheckExact(o) ? PyList_Size(o) : -1;
+}
+
+static PyObject *exact_item(PyObject *o, Py_ssize_t i)
+{
+    return PyTuple_CheckExact(o) ? PyTuple_GetItem(o, i) : PyList_GetItem(o, i);
+}
+
 static int quick_floats(PyObject *o, int cols, double lo, double hi, double *out)
 {
-    const int tuple = PyTuple_CheckExact(o);
-    if (!tuple && !PyList_CheckExact(o))
+    if (!o || exact_length(o) != cols)
         return -1;
-    if ((tuple ? PyTuple_Size(o) : PyList_Size(o)) != cols)
-        return -1;
-    for (int i = 0; i < cols; i++) {
-        PyObject *x = tuple ? PyTuple_GetItem(o, i) : PyList_GetItem(o, i);
-        if (!x || !PyFloat_Check(x))
+    for (int i = 0; i < cols; i++)
+        if (float_in_range(exact_item(o, i), lo, hi, &out[i]))
             return -1;
-        const double v = PyFloat_AsDouble(x);
-        if (!isfinite(v) || !(v >= lo && v <= hi))
-            return -1;
-        out[i] = v;
-    }
     return 0;
 }
 
 /* read_shaped's common values: a float, or rows of floats. */
 static int quick_shaped(PyObject *v, const ub_param *p, double *out)
 {
-    if (p->rows == 1 && p->cols == 1) {
-        if (!PyFloat_Check(v))
-            return -1;
-        const double x = PyFloat_AsDouble(v);
-        if (!isfinite(x) || !(x >= p->min && x <= p->max))
-            return -1;
-        *out = x;
-        return 0;
-    }
+    if (p->rows == 1 && p->cols == 1)
+        return float_in_range(v, p->min, p->max, out);
     if (p->rows == 1)
         return quick_floats(v, p->cols, p->min, p->max, out);
-    const int tuple = PyTuple_CheckExact(v);
-    if ((!tuple && !PyList_CheckExact(v)) || (tuple ? PyTuple_Size(v) : PyList_Size(v)) != p->rows)
+    if (exact_length(v) != p->rows)
         return -1;
-    for (int r = 0; r < p->rows; r++) {
-        PyObject *row = tuple ? PyTuple_GetItem(v, r) : PyList_GetItem(v, r);
-        if (!row || quick_floats(row, p->cols, p->min, p->max, out + r * p->cols))
+    for (int r = 0; r < p->rows; r++)
+        if (quick_floats(exact_item(v, r), p->cols, p->min, p->max, out + r * p->cols))
             return -1;
-    }
     return 0;
 }
 
@@ -283,18 +301,8 @@ static int quick_value(PyObject *v, const ub_param *p, void *record)
     switch (p->type) {
     case UB_PARAM_FLOAT:
         return quick_shaped(v, p, (double *)field);
-    case UB_PARAM_INT: {
-        if (!PyLong_Check(v) || PyBool_Check(v))
-            return -1;
-        int overflow = 0;
-        const long long x = PyLong_AsLongLongAndOverflow(v, &overflow);
-        if ((x == -1 && PyErr_Occurred()) || overflow || x < p->min || x > p->max) {
-            PyErr_Clear();
-            return -1;
-        }
-        *(int *)field = (int)x;
-        return 0;
-    }
+    case UB_PARAM_INT:
+        return int_in_range(v, p->min, p->max, (int *)field);
     case UB_PARAM_BOOL:
         if (!PyBool_Check(v))
             return -1;
