@@ -119,6 +119,31 @@ static inline void quaternion_norms(const vf z[4], vf *v2, vf *r2)
     *r2 = v_fma(z[0], z[0], *v2);
 }
 
+/* The iteration's vector part in two numbers (issue 21). For z = (a, v), z^2 + mu = (a^2 - |v|^2 +
+ * mu_0, 2a v + mu_v), so with t = 2a the next |v|^2 and s = 2 v.mu_v (vmu2) are
+ *   |v'|^2 = t^2 |v|^2 + t s + |mu_v|^2,   s' = t s + 2 |mu_v|^2
+ * (m2 = |mu_v|^2, m2x2 = 2 m2): the orbit's |z|^2 follows from a, |v|^2 and s alone, without b, c
+ * and d. Exact in real arithmetic; in float32 it rounds differently from b^2 + c^2 + d^2 of the
+ * rounded b, c, d (the peer frame: no hit gained or lost, 0.004 % of its pixels more than 1/255
+ * apart; the float64 references' tests hold). The gain is the loop-carried path, five dependent
+ * operations an iteration before (a -> b = fma(a, 2b, mu_1) -> |v|^2, three fmas -> a): about 20
+ * cycles at 4 cycles an operation; now a -> t -> t^2 -> |v'|^2 -> a'' is four for two iterations
+ * (about 8 cycles an iteration), and a step is 8 arithmetic operations instead of 10 (the pairs)
+ * or 12. */
+static inline __attribute__((always_inline)) void vector_part_step(vf t, vf m2, vf m2x2, vf *v2, vf *vmu2)
+{
+    vf next_v2 = v_fma(v_mul(t, t), *v2, v_fma(t, *vmu2, m2));
+    *vmu2 = v_fma(t, *vmu2, m2x2);
+    *v2 = next_v2;
+}
+
+/* 2 v.mu_v of z = (a, b, c, d), vector_part_step's vmu2. */
+static inline vf vector_part_dot(vf b, vf c, vf d, const vf mu[4])
+{
+    vf half = v_fma(b, mu[1], v_fma(c, mu[2], v_mul(d, mu[3])));
+    return v_add(half, half);
+}
+
 /* The escape-time distance estimate |z| log|z| / (2 |grad|) from r2 = |z|^2, its logarithm lr2 and
  * grad2 = |grad|^2: sqrt(r2 / grad2) lr2 / 4. */
 static inline vf escape_estimate(vf r2, vf lr2, vf grad2)
@@ -137,8 +162,7 @@ static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de
 {
     const ub_object *o = p->obj;
     const vf mu[4] = {mandel ? a : p->mu[0], mandel ? b : p->mu[1], mandel ? c : p->mu[2], mandel ? d : p->mu[3]};
-    /* |v|^2 = b^2 + c^2 + d^2 of the current z: both the next |z|^2 and the next z's real part
-     * read it, so each iteration computes it once (issue 21: 3 of the loop's 23 operations). */
+    /* |v|^2 = b^2 + c^2 + d^2 of the starting z; vector_part_step carries it on. */
     vf v2 = v_fma(b, b, v_fma(c, c, v_mul(d, d)));
     vf r2 = v_fma(a, a, v2);
     /* Julia: |f^n'|^2 by |f'| <- 2|z||f'| (squared, no root per iteration). Mandelbrot: the
@@ -152,7 +176,8 @@ static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de
             for (int c4 = 0; c4 < 4; c4++)
                 j[k][c4] = v_set1((float)o->slice_basis[c4][k]);
     vm active = lanes;
-    vf b2 = v_add(b, b), c2 = v_add(c, c), d2 = v_add(d, d);
+    vf vmu2 = vector_part_dot(b, c, d, mu);
+    const vf m2 = v_fma(mu[1], mu[1], v_fma(mu[2], mu[2], v_mul(mu[3], mu[3]))), m2x2 = v_add(m2, m2);
     const vf four = v_set1(4.0f), two = v_set1(2.0f), half = v_set1(0.5f);
     for (int it = 0; it < p->max_iterations; it++) {
         if (want & UB_WANT_JACOBIAN) {
@@ -185,43 +210,37 @@ static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de
                         j[k][c4] = v_mul(j[k][c4], s);
             }
         }
-        /* One step of f(z) = z^2 + mu, given 2b, 2c, 2d and |v|^2 = b^2 + c^2 + d^2 of z. 2ab + mu1
-         * as fma(a, 2b, mu1), not fma(2a, b, mu1): the same number (doubling is exact and an fma
-         * rounds only once, after the exact product), but a reaches the new b through one fma
-         * instead of an add and an fma. The loop-carried path a -> b -> b^2 -> a sets the pace of
-         * the loop; it is 4 cycles shorter (issue 21; 2b, 2c, 2d are carried). Written out, not
+        /* One step of f(z) = z^2 + mu: its real part and |z|^2 from a, |v|^2 and vmu2 = 2 v.mu_v
+         * (vector_part_step); b, c and d only where the Jacobian reads them. Written out, not
          * through a helper filling an array: that measured 2-3 % slower on the peer scene (GCC
          * schedules the latency-bound chain differently). */
+        vf t = v_add(a, a);
         vf na = v_sub(v_fma(a, a, mu[0]), v2);
-        vf nb = v_fma(a, b2, mu[1]);
-        vf nc = v_fma(a, c2, mu[2]);
-        vf nd = v_fma(a, d2, mu[3]);
+        vf nv2 = v2, nvmu2 = vmu2;
+        vector_part_step(t, m2, m2x2, &nv2, &nvmu2);
         if (mandel)
             dm = v_select(active, v_fma(v_mul(two, v_sqrt(r2)), dm, v_set1(1.0f)), dm);
         else
             dr2 = v_select(active, v_mul(dr2, v_mul(four, r2)), dr2);
-        vf nv2 = v_fma(nb, nb, v_fma(nc, nc, v_mul(nd, nd)));
         vf nr2 = v_fma(na, na, nv2);
         if (want & UB_WANT_JACOBIAN) {
-            /* The normal below reads z_n of each lane at its escape: freeze it. */
+            /* The normal below reads z_n of each lane at its escape: freeze it. 2ab + mu_1 as
+             * fma(2a, b, mu_1), the vector part of the step. */
+            vf nb = v_fma(t, b, mu[1]), nc = v_fma(t, c, mu[2]), nd = v_fma(t, d, mu[3]);
             a = v_select(active, na, a);
             b = v_select(active, nb, b);
             c = v_select(active, nc, c);
             d = v_select(active, nd, d);
             v2 = v_select(active, nv2, v2);
+            vmu2 = v_select(active, nvmu2, vmu2);
         } else {
             /* Nothing reads z after the loop: escaped lanes iterate on (to inf or NaN, harmless:
              * r2, the derivative and the trap froze at the escape), and no blend sits on the
              * loop-carried path of z (issue 21: 23.8 -> 13.8 cycles per iteration measured). */
             a = na;
-            b = nb;
-            c = nc;
-            d = nd;
             v2 = nv2;
+            vmu2 = nvmu2;
         }
-        b2 = v_add(b, b);
-        c2 = v_add(c, c);
-        d2 = v_add(d, d);
         active = orbit_step(p, want, active, nr2, &r2, &n, &trap, &gscale, half);
         if (!m_bits(active))
             break;
@@ -655,8 +674,7 @@ static inline __attribute__((always_inline)) void de_quaternion_inline(const ub_
 /* Two Julia estimates at once, points z0 in the lanes lanes[0] and z1 in lanes[1]: the two sides of
  * a central difference, or two packets of rays (march.h, march_julia_pair). One loop carries both
  * orbits, so the second one's operations fill the vector ports while the first waits on its
- * loop-carried path (de_quaternion: a -> b -> a,
- * about 10 cycles an iteration where the ports allow about 8.5). Each orbit is de_quaternion's
+ * loop-carried path (a -> t -> |v|^2 -> a, vector_part_step). Each orbit is de_quaternion's
  * with want = 0, operation for operation, so each estimate has de_julia's bits; the loop runs until
  * both orbits' lanes have escaped (an escaped lane's z iterates on, harmless: r2 and the
  * derivative froze at its escape, as in de_quaternion). Issue 21: the normals' six estimates a hit
@@ -666,29 +684,25 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
 {
     const vf four = v_set1(4.0f);
     const vf *z[2] = {z0, z1};
-    vf q[2][4], v2[2], r2[2], dr2[2], n[2];
+    const vf m2 = v_fma(p->mu[1], p->mu[1], v_fma(p->mu[2], p->mu[2], v_mul(p->mu[3], p->mu[3])));
+    const vf m2x2 = v_add(m2, m2);
+    vf a[2], v2[2], vmu2[2], r2[2], dr2[2], n[2];
     vm active[2];
     for (int k = 0; k < 2; k++) {
-        for (int c = 0; c < 4; c++)
-            q[k][c] = z[k][c];
+        a[k] = z[k][0];
         quaternion_norms(z[k], &v2[k], &r2[k]);
+        vmu2[k] = vector_part_dot(z[k][1], z[k][2], z[k][3], p->mu);
         dr2[k] = v_set1(1.0f);
         n[k] = v_set1(0.0f);
         active[k] = lanes[k];
     }
     for (int it = 0; it < p->max_iterations && m_bits(m_or(active[0], active[1])); it++) {
         for (int k = 0; k < 2; k++) {
-            /* 2ab + mu as fma(2a, b, mu): one doubling instead of three (2a b = a 2b exactly, so
-             * the same bits as de_quaternion_body's fma(a, 2b, mu)). The pair is bound by
-             * the ports, not by the longer path through 2a. */
-            vf nz[4], nr2, a2 = v_add(q[k][0], q[k][0]);
-            nz[0] = v_sub(v_fma(q[k][0], q[k][0], p->mu[0]), v2[k]);
-            for (int c = 1; c < 4; c++)
-                nz[c] = v_fma(a2, q[k][c], p->mu[c]);
+            vf t = v_add(a[k], a[k]);
+            a[k] = v_sub(v_fma(a[k], a[k], p->mu[0]), v2[k]);
+            vector_part_step(t, m2, m2x2, &v2[k], &vmu2[k]);
             dr2[k] = v_select(active[k], v_mul(dr2[k], v_mul(four, r2[k])), dr2[k]);
-            quaternion_norms(nz, &v2[k], &nr2);
-            for (int c = 0; c < 4; c++)
-                q[k][c] = nz[c];
+            vf nr2 = v_fma(a[k], a[k], v2[k]);
             r2[k] = v_select(active[k], nr2, r2[k]);
             n[k] = v_count(n[k], active[k]);
             active[k] = m_andnot(v_gt(nr2, p->bail2), active[k]);
