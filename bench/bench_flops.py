@@ -8,6 +8,11 @@ derivative), times the iterations of f the render runs: `stats["iterations"]` (t
 and its bisection) plus `stats["normal_iterations"]` (the six estimates of each hit's central
 differences, the same iteration; counted since 2026-12-01, before that the figure was the march's
 alone, which it also prints). GFLOP/s per core = FLOP / process CPU seconds of the whole call.
+Since 2026-12-05 the core carries the iteration's vector part as |v|^2 and 2 v.mu_v
+(estimators.h, vector_part_step): an iteration now executes 15 FLOP (2a: 1; a^2 + mu_0 - |v|^2: 3;
+the next |v|^2 and 2 v.mu_v: 7; |z|^2: 2; the derivative: 2), so the same iterations are also
+reported by the FLOP they execute; the issue's count (24) stays the headline, the work of a
+quaternion iteration, comparable with the figures before.
 
 Each kernel (avx512, avx2) renders the peer scene (bench_core.py's camera and object, 1280x1024,
 passes combined, alpha, depth) on 1 and 2 threads, interleaved, after a warm-up; medians (min-max).
@@ -45,6 +50,7 @@ import bench_core  # noqa: E402  (puts the built module on the path)
 import unbound_core as uc  # noqa: E402
 
 FLOP_PER_ITERATION = 24
+FLOP_EXECUTED_PER_ITERATION = 15
 WIDTHS = {"avx512": "1", "avx2": "0"}
 
 
@@ -161,6 +167,9 @@ def main():
             # process costs CPU that a second process does not (bench/README.md, 2026-12-04).
             print("  of the peak: 1 thread %s %%, 2 threads %s %%" % tuple(
                 med([100.0 * g / peaks[k] for g in gflops[i * len(one):(i + 1) * len(one)]]) for i in (0, 1)))
+            print("  by the FLOP an iteration executes (%d, not %d): %s %% of the peak" % (
+                FLOP_EXECUTED_PER_ITERATION, FLOP_PER_ITERATION, med([100.0 * g * FLOP_EXECUTED_PER_ITERATION
+                                                                       / FLOP_PER_ITERATION / peaks[k] for g in gflops])))
         if args.ceiling:
             loop = loop_gflops(k)
             print("  the iteration loop alone (every lane busy): %.1f GFLOP/s per core%s; the render %s %% of it"
