@@ -137,6 +137,14 @@ static inline __attribute__((always_inline)) void vector_part_step(vf t, vf m2, 
     *v2 = next_v2;
 }
 
+/* vector_part_step's constants: |mu_v|^2 and twice it. */
+static inline void vector_part_constants(const vf mu[4], vf *m2, vf *m2x2)
+{
+    vf unused;
+    quaternion_norms(mu, m2, &unused);
+    *m2x2 = v_add(*m2, *m2);
+}
+
 /* 2 v.mu_v of z = (a, b, c, d), vector_part_step's vmu2. */
 static inline vf vector_part_dot(vf b, vf c, vf d, const vf mu[4])
 {
@@ -176,8 +184,8 @@ static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de
             for (int c4 = 0; c4 < 4; c4++)
                 j[k][c4] = v_set1((float)o->slice_basis[c4][k]);
     vm active = lanes;
-    vf vmu2 = vector_part_dot(b, c, d, mu);
-    const vf m2 = v_fma(mu[1], mu[1], v_fma(mu[2], mu[2], v_mul(mu[3], mu[3]))), m2x2 = v_add(m2, m2);
+    vf vmu2 = vector_part_dot(b, c, d, mu), m2, m2x2;
+    vector_part_constants(mu, &m2, &m2x2);
     const vf four = v_set1(4.0f), two = v_set1(2.0f), half = v_set1(0.5f);
     for (int it = 0; it < p->max_iterations; it++) {
         if (want & UB_WANT_JACOBIAN) {
@@ -684,8 +692,8 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
 {
     const vf four = v_set1(4.0f);
     const vf *z[2] = {z0, z1};
-    const vf m2 = v_fma(p->mu[1], p->mu[1], v_fma(p->mu[2], p->mu[2], v_mul(p->mu[3], p->mu[3])));
-    const vf m2x2 = v_add(m2, m2);
+    vf m2, m2x2;
+    vector_part_constants(p->mu, &m2, &m2x2);
     vf a[2], v2[2], vmu2[2], r2[2], dr2[2], n[2];
     vm active[2];
     for (int k = 0; k < 2; k++) {
