@@ -24,7 +24,8 @@ is the user's cost with either (the core alone writes no file), so it is measure
 48 frames as F12s that write nothing (frame_set, then bpy.ops.render.render()), whose difference
 to the animation is what saving the frames costs. Interleaved rounds, medians of CPU time; and
 what an F12 frame costs beyond its core calls (its CPU less theirs: steadier than the ratio, which
-moves with the core's own time).
+moves with the core's own time), split into the calling thread's CPU (time.thread_time) and the
+other threads' (Blender's thread pool), and the core calls' own CPU against the bare core's.
 
     python bench/bench_f12.py [--repeats 3] [--res 1920x1080] [--memory] [--motion-blur [--samples 16]]
                               [--animation [--res 640x360]]
@@ -186,19 +187,22 @@ def animation(width, height, repeats, frames=48):
 
     # The CPU of the core's calls within F12, so that the rest (Blender's frame change and render
     # pipeline, the add-on's export and copies) is known apart from the core's own variation.
+    # Of that rest, the calling thread's own CPU (time.thread_time) is told apart from the other
+    # threads' (Blender's thread pool evaluating the depsgraph, and spinning after it).
     utils = sys.modules[module + ".utils"]
-    inside = [0.0]
+    inside = [0.0, 0.0]  # process CPU, calling thread's CPU
 
     class TimedCore:
         def __getattr__(self, name):
             return getattr(core, name)
 
         def render(self, *args, **kw):
-            c = time.process_time()
+            c, t = time.process_time(), time.thread_time()
             try:
                 return core.render(*args, **kw)
             finally:
                 inside[0] += time.process_time() - c
+                inside[1] += time.thread_time() - t
 
     def f12_each_frame():
         native, utils.native = utils.native, TimedCore
@@ -211,20 +215,27 @@ def animation(width, height, repeats, frames=48):
 
     rows = {"animation": [], "f12": [], "core": []}
     runs = {"animation": lambda: bpy.ops.render.render(animation=True), "f12": f12_each_frame, "core": bare_core}
-    beside = []  # ms of CPU a frame of F12 beyond its core calls
+    beside, beside_main = [], []  # ms of CPU a frame of F12 beyond its core calls: all, calling thread
+    within = []  # ms of CPU a frame of F12's core calls
     for _ in range(repeats):  # interleaved, so that load changes hit all alike
         for name, run in runs.items():
-            inside[0] = 0.0
+            inside[:] = [0.0, 0.0]
+            main = time.thread_time()
             rows[name].append(timed(run))
             if name == "f12":
                 beside.append((rows[name][-1][1] - inside[0]) / frames * 1e3)
+                beside_main.append((time.thread_time() - main - inside[1]) / frames * 1e3)
+                within.append(inside[0] / frames * 1e3)
     for name in ("animation", "f12"):
         ratio = [a[1] / b[1] for a, b in zip(rows[name], rows["core"])]
         print("%s: wall %s s, CPU %s s; CPU / bare core %s" % (
             "animation (PNGs)" if name == "animation" else "F12 per frame, no files", summary([t[0] for t in rows[name]]),
             summary([t[1] for t in rows[name]]), summary(ratio)))
-    print("F12 per frame beyond its core calls (Blender's frame change and pipeline, the add-on): %s ms of CPU"
-          % summary(beside))
+    print("F12 per frame beyond its core calls (Blender's frame change and pipeline, the add-on): %s ms of CPU; "
+          "of it the calling thread %s ms, the other threads %s ms"
+          % (summary(beside), summary(beside_main), summary([a - b for a, b in zip(beside, beside_main)])))
+    print("F12's core calls: %s ms of CPU a frame, against the bare core's %s"
+          % (summary(within), summary([t[1] / frames * 1e3 for t in rows["core"]])))
     print("bare core, %d frames at %dx%d, passes %s: wall %s s, CPU %s s" % (
         frames, width, height, ",".join(sorted(buffers)), summary([t[0] for t in rows["core"]]),
         summary([t[1] for t in rows["core"]])))
