@@ -220,11 +220,11 @@ def animation(width, height, repeats, frames=48):
     for _ in range(repeats):  # interleaved, so that load changes hit all alike
         for name, run in runs.items():
             inside[:] = [0.0, 0.0]
-            main = time.thread_time()
+            calling = time.thread_time()
             rows[name].append(timed(run))
             if name == "f12":
                 beside.append((rows[name][-1][1] - inside[0]) / frames * 1e3)
-                beside_main.append((time.thread_time() - main - inside[1]) / frames * 1e3)
+                beside_main.append((time.thread_time() - calling - inside[1]) / frames * 1e3)
                 within.append(inside[0] / frames * 1e3)
     for name in ("animation", "f12"):
         ratio = [a[1] / b[1] for a, b in zip(rows[name], rows["core"])]
