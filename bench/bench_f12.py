@@ -190,7 +190,7 @@ def animation(width, height, repeats, frames=48):
     # Of that rest, the calling thread's own CPU (time.thread_time) is told apart from the other
     # threads' (Blender's thread pool evaluating the depsgraph, and spinning after it).
     utils = sys.modules[module + ".utils"]
-    inside = [0.0, 0.0]  # process CPU, calling thread's CPU
+    inside = {"process": 0.0, "calling": 0.0}  # CPU seconds within the core's calls
 
     class TimedCore:
         def __getattr__(self, name):
@@ -201,8 +201,8 @@ def animation(width, height, repeats, frames=48):
             try:
                 return core.render(*args, **kw)
             finally:
-                inside[0] += time.process_time() - c
-                inside[1] += time.thread_time() - t
+                inside["process"] += time.process_time() - c
+                inside["calling"] += time.thread_time() - t
 
     def f12_each_frame():
         native, utils.native = utils.native, TimedCore
@@ -215,17 +215,17 @@ def animation(width, height, repeats, frames=48):
 
     rows = {"animation": [], "f12": [], "core": []}
     runs = {"animation": lambda: bpy.ops.render.render(animation=True), "f12": f12_each_frame, "core": bare_core}
-    beside, beside_main = [], []  # ms of CPU a frame of F12 beyond its core calls: all, calling thread
+    beside, beside_calling = [], []  # ms of CPU a frame of F12 beyond its core calls: all, calling thread
     within = []  # ms of CPU a frame of F12's core calls
     for _ in range(repeats):  # interleaved, so that load changes hit all alike
         for name, run in runs.items():
-            inside[:] = [0.0, 0.0]
+            inside.update(process=0.0, calling=0.0)
             calling = time.thread_time()
             rows[name].append(timed(run))
             if name == "f12":
-                beside.append((rows[name][-1][1] - inside[0]) / frames * 1e3)
-                beside_main.append((time.thread_time() - calling - inside[1]) / frames * 1e3)
-                within.append(inside[0] / frames * 1e3)
+                beside.append((rows[name][-1][1] - inside["process"]) / frames * 1e3)
+                beside_calling.append((time.thread_time() - calling - inside["calling"]) / frames * 1e3)
+                within.append(inside["process"] / frames * 1e3)
     for name in ("animation", "f12"):
         ratio = [a[1] / b[1] for a, b in zip(rows[name], rows["core"])]
         print("%s: wall %s s, CPU %s s; CPU / bare core %s" % (
@@ -233,7 +233,7 @@ def animation(width, height, repeats, frames=48):
             summary([t[1] for t in rows[name]]), summary(ratio)))
     print("F12 per frame beyond its core calls (Blender's frame change and pipeline, the add-on): %s ms of CPU; "
           "of it the calling thread %s ms, the other threads %s ms"
-          % (summary(beside), summary(beside_main), summary([a - b for a, b in zip(beside, beside_main)])))
+          % (summary(beside), summary(beside_calling), summary([a - b for a, b in zip(beside, beside_calling)])))
     print("F12's core calls: %s ms of CPU a frame, against the bare core's %s"
           % (summary(within), summary([t[1] / frames * 1e3 for t in rows["core"]])))
     print("bare core, %d frames at %dx%d, passes %s: wall %s s, CPU %s s" % (

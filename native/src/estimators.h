@@ -171,8 +171,8 @@ static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de
     const ub_object *o = p->obj;
     const vf mu[4] = {mandel ? a : p->mu[0], mandel ? b : p->mu[1], mandel ? c : p->mu[2], mandel ? d : p->mu[3]};
     /* |v|^2 = b^2 + c^2 + d^2 of the starting z; vector_part_step carries it on. */
-    vf v2 = v_fma(b, b, v_fma(c, c, v_mul(d, d)));
-    vf r2 = v_fma(a, a, v2);
+    vf v2, r2;
+    quaternion_norms((const vf[4]){a, b, c, d}, &v2, &r2);
     /* Julia: |f^n'|^2 by |f'| <- 2|z||f'| (squared, no root per iteration). Mandelbrot: the
      * derivative in mu, |f'| <- 2|z||f'| + 1 (Milnor's estimate), which needs |z| itself. */
     vf dr2 = v_set1(1.0f), dm = v_set1(1.0f);
