@@ -109,7 +109,7 @@ static inline vm orbit_step(const ub_de_params *p, const int want, vm active, vf
     if (want & UB_WANT_POTENTIAL)
         *gscale = v_select(active, v_mul(*gscale, gstep), *gscale);
     *n = v_count(*n, active);
-    return m_andnot(v_gt(nr2, p->bail2), active);
+    return m_andnot_gt(nr2, p->bail2, active);
 }
 
 /* |v|^2 and |z|^2 of z = (a, b, c, d). */
@@ -704,7 +704,7 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
         n[k] = v_set1(0.0f);
         active[k] = lanes[k];
     }
-    for (int it = 0; it < p->max_iterations && m_bits(m_or(active[0], active[1])); it++) {
+    for (int it = 0; it < p->max_iterations && m_either(active[0], active[1]); it++) {
         for (int k = 0; k < 2; k++) {
             vf t = v_add(a[k], a[k]);
             a[k] = v_sub(v_fma(a[k], a[k], p->mu[0]), v2[k]);
@@ -713,7 +713,7 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
             vf nr2 = v_fma(a[k], a[k], v2[k]);
             r2[k] = v_select(active[k], nr2, r2[k]);
             n[k] = v_count(n[k], active[k]);
-            active[k] = m_andnot(v_gt(nr2, p->bail2), active[k]);
+            active[k] = m_andnot_gt(nr2, p->bail2, active[k]);
         }
     }
     for (int k = 0; k < 2; k++) {

@@ -35,6 +35,8 @@ static inline vm m_or(vm a, vm b) { return _mm256_or_ps(a, b); }
 static inline vm m_andnot(vm a, vm b) { return _mm256_andnot_ps(a, b); } /* !a & b */
 static inline vm m_false(void) { return _mm256_setzero_ps(); }
 static inline int m_bits(vm a) { return _mm256_movemask_ps(a); }
+static inline vm m_andnot_gt(vf a, vf b, vm lanes) { return _mm256_andnot_ps(v_gt(a, b), lanes); }
+static inline int m_either(vm a, vm b) { return m_bits(m_or(a, b)) != 0; }
 static inline vm m_from_bits(int bits)
 {
     const __m256i lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);

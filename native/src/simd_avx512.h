@@ -38,6 +38,12 @@ static inline vm m_andnot(vm a, vm b) { return (vm)(~a & b); } /* !a & b */
 static inline vm m_false(void) { return 0; }
 static inline int m_bits(vm a) { return (int)a; }
 static inline vm m_from_bits(int bits) { return (vm)bits; }
+/* The lanes of `lanes` where a > b does not hold (NaN included): m_andnot(v_gt(a, b), lanes) as one
+ * masked compare, not a compare and a mask instruction (issue 21: the iteration loops' escape test;
+ * on the Xeons every mask instruction takes port 0, beside the FMAs). */
+static inline vm m_andnot_gt(vf a, vf b, vm lanes) { return _mm512_mask_cmp_ps_mask(lanes, a, b, _CMP_NGT_UQ); }
+/* Whether a lane of a or of b is set: one kortest, not two moves to integer registers and an or. */
+static inline int m_either(vm a, vm b) { return !_kortestz_mask16_u8(a, b); }
 /* m ? a : b */
 static inline vf v_select(vm m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, a); }
 /* a + (m ? 1 : 0) */
