@@ -21,7 +21,9 @@ spent on threading); the wall figure needs a quiet machine. Beside it, what the 
 to two busy cores (clock, shared caches, the host): the same 1-thread render in two processes at
 once, their CPU per render against one process alone (`--pair`).
 
-With --ceiling, what the iteration loop itself reaches: `estimate()` with mu = -1/2 on points near
+With --ceiling, what the iteration loop itself reaches: `estimate()` (since 2026-12-05 two packets at
+a time, the loop of the march's pairs; before, one packet's, whose chain of dependent operations left
+half of a Xeon's two 512-bit FMA ports idle) with mu = -1/2 on points near
 its attracting fixed point (1 - sqrt 3) / 2 (no lane ever escapes, so every lane iterates
 max_iterations times, all 16 busy; the orbits converge at the rate 0.73 per step, so no value
 becomes subnormal, which would cost microcode assists the render does not pay),

@@ -1601,38 +1601,67 @@ void UB_ENTRY(ub_render_tile)(const ub_scene *sc, int phase, int sample, int tx0
         tile_shade(sc, phase == UB_PHASE_TRACE_AND_SHADE, sample, tx0, ty0, tx1, ty1, cnt);
 }
 
+/* ub_estimate's output of one packet's estimates (n points from base). */
+static void estimate_store(const ub_object *o, const float *xyz, size_t base, size_t n, vf dist, vf it,
+                           float *estimate, float *iterations)
+{
+    float db[UB_LANES], ib[UB_LANES];
+    v_store(db, dist);
+    v_store(ib, it);
+    for (size_t l = 0; l < n; l++) {
+        estimate[base + l] = db[l];
+        iterations[base + l] = ib[l];
+        /* Far points overflow float32 in the first iterations: inf/inf (NaN) or inf in the
+         * estimate, or inf - inf in the orbit, which then never "escapes" and reads as a hit (0).
+         * All impossible outside the bounding ball, where the set is not; the distance to the
+         * ball is a lower bound there, and the orbit escaped at once. (Renders never ask: rays
+         * are clipped to the ball.) */
+        if (!(db[l] > 0.0f && db[l] < INFINITY)) {
+            const float *p = xyz + 3 * (base + l);
+            double rel[3] = {p[0] - o->bound_center[0], p[1] - o->bound_center[1], p[2] - o->bound_center[2]};
+            double outside = sqrt(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]) - o->bound_radius;
+            if (outside > 0.0) {
+                /* Beyond float32's range the distance rounds down to its largest value. */
+                estimate[base + l] = (float)fmin(outside, FLT_MAX);
+                iterations[base + l] = 0.0f;
+            }
+        }
+    }
+}
+
+/* The estimates at points, a packet at a time; a Julia set's (julia_only) two packets at a time
+ * through de_julia_pair, as the march takes them, the same bits as de()'s one at a time: one
+ * packet's iteration is a chain of dependent operations that leaves half of a Xeon's two 512-bit
+ * FMA ports idle, which the second packet's fills (issue 21: bench_flops.py --ceiling reads the
+ * loop the render runs). */
 void UB_ENTRY(ub_estimate)(const ub_object *o, const float *xyz, size_t count, float *estimate, float *iterations)
 {
     ub_de_params dp;
     de_params(o, NULL, &dp);
-    for (size_t base = 0; base < count; base += UB_LANES) {
-        float q[4][UB_LANES];
-        size_t n = count - base < UB_LANES ? count - base : UB_LANES;
-        point_packet(o, xyz, base, n, q);
-        vf dist, it;
-        de(&dp, m_from_bits(UB_ALL_LANES), v_load(q[0]), v_load(q[1]), v_load(q[2]), v_load(q[3]), &dist, &it);
-        float db[UB_LANES], ib[UB_LANES];
-        v_store(db, dist);
-        v_store(ib, it);
-        for (size_t l = 0; l < n; l++) {
-            estimate[base + l] = db[l];
-            iterations[base + l] = ib[l];
-            /* Far points overflow float32 in the first iterations: inf/inf (NaN) or inf in the
-             * estimate, or inf - inf in the orbit, which then never "escapes" and reads as a hit (0).
-             * All impossible outside the bounding ball, where the set is not; the distance to the
-             * ball is a lower bound there, and the orbit escaped at once. (Renders never ask: rays
-             * are clipped to the ball.) */
-            if (!(db[l] > 0.0f && db[l] < INFINITY)) {
-                const float *p = xyz + 3 * (base + l);
-                double rel[3] = {p[0] - o->bound_center[0], p[1] - o->bound_center[1], p[2] - o->bound_center[2]};
-                double outside = sqrt(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]) - o->bound_radius;
-                if (outside > 0.0) {
-                    /* Beyond float32's range the distance rounds down to its largest value. */
-                    estimate[base + l] = (float)fmin(outside, FLT_MAX);
-                    iterations[base + l] = 0.0f;
-                }
-            }
+    const size_t step = julia_only(&dp) ? 2 * UB_LANES : UB_LANES;
+    for (size_t base = 0; base < count; base += step) {
+        float q[2][4][UB_LANES];
+        size_t n[2];
+        for (int k = 0; k < 2; k++) {
+            size_t start = base + (size_t)k * UB_LANES;
+            n[k] = start >= count ? 0 : count - start < UB_LANES ? count - start : UB_LANES;
         }
+        point_packet(o, xyz, base, n[0], q[0]);
+        vf dist[2], it[2];
+        if (step == 2 * UB_LANES && n[1]) {
+            point_packet(o, xyz, base + UB_LANES, n[1], q[1]);
+            vf z[2][4];
+            for (int k = 0; k < 2; k++)
+                for (int c = 0; c < 4; c++)
+                    z[k][c] = v_load(q[k][c]);
+            de_julia_pair(&dp, m_from_bits(UB_ALL_LANES), z[0], z[1], dist, it);
+        } else {
+            de(&dp, m_from_bits(UB_ALL_LANES), v_load(q[0][0]), v_load(q[0][1]), v_load(q[0][2]), v_load(q[0][3]),
+               &dist[0], &it[0]);
+        }
+        for (int k = 0; k < 2; k++)
+            if (n[k])
+                estimate_store(o, xyz, base + (size_t)k * UB_LANES, n[k], dist[k], it[k], estimate, iterations);
     }
 }
 

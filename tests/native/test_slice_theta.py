@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import unbound_core as uc
 
-from conftest import make_camera, render
+from conftest import KERNELS, make_camera, render
 from reference import qjulia64 as ref
 
 RNG = np.random.default_rng(20261121)
@@ -34,6 +34,35 @@ def test_estimate_matches_literal_eq5_6(mu, theta):
     same = it == n
     assert same.mean() > 0.995
     np.testing.assert_allclose(e[same], d[same], rtol=1e-3, atol=1e-5)
+
+
+@pytest.mark.parametrize("obj", [dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=16),
+                                 dict(mu=(-0.5, 0.1, -0.4, 0.35), theta=0.7, max_iterations=40),
+                                 dict(mu=(0.3, 0.5, 0.0, 0.0), max_iterations=9, bailout=16.0),
+                                 dict(kind="quaternion_mandelbrot", max_iterations=12)])
+def test_estimate_in_batches_has_the_bits_of_one_point_at_a_time(obj):
+    """estimate() takes a Julia set's points two packets at a time (de_julia_pair, issue 21), a
+    last packet or a point alone through de(); each point's estimate and escape count must have
+    the bits of that point estimated alone, in every kernel, whatever the count (partial packets,
+    an odd packet at the end), points far outside the ball (the fallback to the ball's distance)
+    included, and the kernels must agree."""
+    pts = np.concatenate([RNG.uniform(-1.6, 1.6, (97, 3)), RNG.uniform(-40.0, 40.0, (6, 3))]).astype(np.float32)
+    for kernel in KERNELS:
+        alone = [np.empty(1, np.float32) for _ in range(2)]
+        one_by_one = np.empty((2, len(pts)), np.float32)
+        for i in range(len(pts)):
+            uc.estimate(obj, pts[i:i + 1], alone[0], alone[1], simd=kernel)
+            one_by_one[:, i] = alone[0][0], alone[1][0]
+        for count in (1, 15, 16, 17, 32, 33, 48, 49, len(pts)):
+            e, it = np.full(count, np.nan, np.float32), np.full(count, np.nan, np.float32)
+            uc.estimate(obj, pts[:count], e, it, simd=kernel)
+            assert np.array_equal(e, one_by_one[0, :count]), (kernel, count)
+            assert np.array_equal(it, one_by_one[1, :count]), (kernel, count)
+        if kernel == "portable":
+            portable = one_by_one
+        else:
+            assert np.array_equal(one_by_one, portable), kernel
+    assert np.all(np.isfinite(portable)) and np.any(portable[0] > 0.0) and np.any(portable[0] == 0.0)
 
 
 def test_theta_zero_and_two_pi_render_identically():
