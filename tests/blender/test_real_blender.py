@@ -372,7 +372,7 @@ def test_gui_solid_proxy_shows_the_fractal(proxy_f12_log):
 
 
 def test_gui_f12_result_changes_during_the_render(proxy_f12_log):
-    """F12 (render.render INVOKE_DEFAULT into the render window's Image Editor) of 64 samples (one
+    """F12 (render.render INVOKE_DEFAULT into the render window's Image Editor) of 192 samples (one
     render thread) with every sample uploaded, the window filmed by ffmpeg 5 times a second: the image area shows at
     least two pictures that are neither the empty window before F12 nor the finished render (so
     they were shown while it rendered), the film ends on the finished picture, and the Render
