@@ -1638,17 +1638,17 @@ void UB_ENTRY(ub_estimate)(const ub_object *o, const float *xyz, size_t count, f
 {
     ub_de_params dp;
     de_params(o, NULL, &dp);
-    const size_t step = julia_only(&dp) ? 2 * UB_LANES : UB_LANES;
-    for (size_t base = 0; base < count; base += step) {
+    const int packets = julia_only(&dp) ? 2 : 1;
+    for (size_t base = 0; base < count; base += (size_t)packets * UB_LANES) {
         float q[2][4][UB_LANES];
-        size_t n[2];
-        for (int k = 0; k < 2; k++) {
+        size_t n[2] = {0, 0}; /* points of each packet; the second only with packets = 2 */
+        for (int k = 0; k < packets; k++) {
             size_t start = base + (size_t)k * UB_LANES;
             n[k] = start >= count ? 0 : count - start < UB_LANES ? count - start : UB_LANES;
         }
         point_packet(o, xyz, base, n[0], q[0]);
         vf dist[2], it[2];
-        if (step == 2 * UB_LANES && n[1]) {
+        if (n[1]) {
             point_packet(o, xyz, base + UB_LANES, n[1], q[1]);
             vf z[2][4];
             for (int k = 0; k < 2; k++)
