@@ -1646,19 +1646,16 @@ void UB_ENTRY(ub_estimate)(const ub_object *o, const float *xyz, size_t count, f
             size_t start = base + (size_t)k * UB_LANES;
             n[k] = start >= count ? 0 : count - start < UB_LANES ? count - start : UB_LANES;
         }
-        point_packet(o, xyz, base, n[0], q[0]);
-        vf dist[2], it[2];
-        if (n[1]) {
-            point_packet(o, xyz, base + UB_LANES, n[1], q[1]);
-            vf z[2][4];
-            for (int k = 0; k < 2; k++)
-                for (int c = 0; c < 4; c++)
-                    z[k][c] = v_load(q[k][c]);
-            de_julia_pair(&dp, m_from_bits(UB_ALL_LANES), z[0], z[1], dist, it);
-        } else {
-            de(&dp, m_from_bits(UB_ALL_LANES), v_load(q[0][0]), v_load(q[0][1]), v_load(q[0][2]), v_load(q[0][3]),
-               &dist[0], &it[0]);
+        vf z[2][4], dist[2], it[2];
+        for (int k = 0; k < 2 && n[k]; k++) {
+            point_packet(o, xyz, base + (size_t)k * UB_LANES, n[k], q[k]);
+            for (int c = 0; c < 4; c++)
+                z[k][c] = v_load(q[k][c]);
         }
+        if (n[1])
+            de_julia_pair(&dp, m_from_bits(UB_ALL_LANES), z[0], z[1], dist, it);
+        else
+            de(&dp, m_from_bits(UB_ALL_LANES), z[0][0], z[0][1], z[0][2], z[0][3], &dist[0], &it[0]);
         for (int k = 0; k < 2; k++)
             if (n[k])
                 estimate_store(o, xyz, base + (size_t)k * UB_LANES, n[k], dist[k], it[k], estimate, iterations);

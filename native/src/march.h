@@ -455,7 +455,7 @@ static inline __attribute__((always_inline)) int pair_step(const ub_de_params *d
     julia_estimates(dp, active, z, new_dist, new_iters);
     for (int k = 0; k < 2; k++)
         march_advance(dp, c, relax, new_dist[k], new_iters[k], steps[k], NULL, v_set1(0.0f), m[k]);
-    return m_bits(m_or(m0->active, m1->active)) != 0;
+    return m_either(m0->active, m1->active);
 }
 
 /* One bisection step of a pair's hits; returns 0, and takes none, once neither packet wants one. */
@@ -488,7 +488,7 @@ static inline __attribute__((always_inline)) void march_julia_pair_body(const ub
     ub_march_state *const m[2] = {&m0, &m1};
     for (int k = 0; k < 2; k++)
         march_begin(r[k], t_base[k], lanes[k], relax, m[k], &res[k]);
-    int marching = m_bits(m_or(m0.active, m1.active)) != 0;
+    int marching = m_either(m0.active, m1.active);
     for (int step = 0; step < o->max_steps && marching; step++) {
         if (cancelled(sc))
             return;
@@ -520,7 +520,7 @@ static inline __attribute__((always_inline)) void march_julia_two_pairs_body(con
     ub_march_state *const m[4] = {&a0, &a1, &b0, &b1};
     for (int k = 0; k < 4; k++)
         march_begin(r[k], t_base[k], lanes[k], relax, m[k], &res[k]);
-    int marching_a = m_bits(m_or(a0.active, a1.active)) != 0, marching_b = m_bits(m_or(b0.active, b1.active)) != 0;
+    int marching_a = m_either(a0.active, a1.active), marching_b = m_either(b0.active, b1.active);
     for (int step_a = 0, step_b = 0;;) {
         marching_a &= step_a < o->max_steps;
         marching_b &= step_b < o->max_steps;

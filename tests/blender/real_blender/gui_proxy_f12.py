@@ -31,7 +31,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import gui_common  # noqa: E402
 from gui_common import MODULE, OUT, after, area, fractal_scene, grab, guarded, log, region, window  # noqa: E402
 
-F12_SAMPLES = 192  # about 3 s with one thread on a fast host: Blender refreshes the window about every
+F12_SAMPLES = 192  # about 4 s with one thread on a fast host: Blender refreshes the window about every
 #                    half second. (24 took 3 s before the core got 2.5x faster, then 1.1-1.5 s; 64 took
 #                    0.85-1.13 s on a Xeon of 2026-12-05, where one run showed only one picture.)
 SCRATCH = tempfile.mkdtemp()
