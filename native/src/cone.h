@@ -182,11 +182,38 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
 {
     if (o->bound_radius < 0.0) /* the slice misses the set: no ray meets it (object_rays) */
         return;
-    /* Lane loops over plain arrays: the compiler makes double-precision vector code of them (the
-     * same bits in any vector width: + - * / sqrt only, no contraction). */
+    /* The points in object space, their distance to the bounding ball and their quaternions: only
+     * + - * sqrt, in the same order in every lane (the same bits at any vector width, no
+     * contraction), in double vectors where the kernel has them (as object_rays: issue 21, the
+     * compiler's own code of these loops spilled and shuffled), else in lane loops. */
     const double(*w)[4] = o->world_to_object;
-    double oc[3][UB_LANES], ball[UB_LANES];
+    double ball[UB_LANES];
     float q[4][UB_LANES];
+#ifdef VD_LANES
+    for (int h = 0; h < UB_LANES; h += VD_LANES) {
+        vd cv[3], oc[3], rel[3];
+        for (int i = 0; i < 3; i++)
+            cv[i] = vd_load(c[i] + h);
+        for (int i = 0; i < 3; i++) {
+            oc[i] = vd_add(vd_add(vd_add(vd_mul(vd_set1(w[i][0]), cv[0]), vd_mul(vd_set1(w[i][1]), cv[1])),
+                                  vd_mul(vd_set1(w[i][2]), cv[2])),
+                           vd_set1(w[i][3]));
+            rel[i] = vd_sub(oc[i], vd_set1(o->bound_center[i]));
+        }
+        const vd r2 = vd_add(vd_add(vd_mul(rel[0], rel[0]), vd_mul(rel[1], rel[1])), vd_mul(rel[2], rel[2]));
+        vd_store(ball + h, vd_sub(vd_sqrt(r2), vd_set1(o->bound_radius))); /* object units, < 0 inside */
+        for (int k = 0; k < 4; k++) {
+            const double *b = o->slice_basis[k];
+            double qk[VD_LANES];
+            vd_store(qk, vd_add(vd_add(vd_add(vd_set1(o->slice_origin[k]), vd_mul(vd_set1(b[0]), oc[0])),
+                                       vd_mul(vd_set1(b[1]), oc[1])),
+                                vd_mul(vd_set1(b[2]), oc[2])));
+            for (int l = 0; l < VD_LANES; l++)
+                q[k][h + l] = (float)qk[l];
+        }
+    }
+#else
+    double oc[3][UB_LANES];
     for (int i = 0; i < 3; i++)
         for (int l = 0; l < UB_LANES; l++)
             oc[i][l] = w[i][0] * c[0][l] + w[i][1] * c[1][l] + w[i][2] * c[2][l] + w[i][3];
@@ -200,6 +227,7 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
         for (int l = 0; l < UB_LANES; l++)
             q[k][l] = (float)(o->slice_origin[k] + b[0] * oc[0][l] + b[1] * oc[1][l] + b[2] * oc[2][l]);
     }
+#endif
     /* The estimate only near the ball: far outside, float32 orbits overflow (kernel.h's
      * ub_estimate), and the ball's own distance is the better bound there anyway. */
     int near = 0;
