@@ -379,40 +379,40 @@ static void cone_fill(const ub_scene *sc, const ub_de_params *dps, int tx0, int 
         cone_batch(sc, dps, pending, n, cnt);
 }
 
-/* The certified starts of the cones of image pixels (px[l], py[l]), computed by cone_fill. The
- * indices first, in loops without branches (vector code): no pixel coordinate is negative. Then
- * one load, when every lane lies in one cone (a block of 4 x 4 pixels inside a cone of 8 x 8,
- * mostly; issue 21: a load a lane was a third of chunk_primary's time), else one load a lane. */
-static void lane_starts(const ub_cone_cache *cc, const int px[UB_LANES], const int py[UB_LANES],
-                        double start[UB_LANES])
-{
-    unsigned index[UB_LANES];
-    for (int l = 0; l < UB_LANES; l++)
-        index[l] = cone_index(cc, px[l], py[l]);
-    int one_cone = 1;
-    for (int l = 0; l < UB_LANES; l++)
-        one_cone &= index[l] == index[0];
-    if (one_cone) {
-        double shared;
-        __atomic_load(&cc->start[index[0]], &shared, __ATOMIC_RELAXED);
-        for (int l = 0; l < UB_LANES; l++)
-            start[l] = shared;
-        return;
-    }
-    for (int l = 0; l < UB_LANES; l++)
-        __atomic_load(&cc->start[index[l]], &start[l], __ATOMIC_RELAXED);
-}
-
-/* The lanes whose block is empty (UB_CONE_EMPTY): past their start no ray touches an object's
- * bounding ball, so trace() would clip every object away (object_rays) and find what it finds
- * for a lane it is not given: no hit, no step. Most of a frame's background is such blocks
- * (issue 21: 61 % of the peer scene's pixels take no step). */
+/* The lanes whose start is UB_CONE_EMPTY: past it no ray touches an object's bounding ball, so
+ * trace() would clip every object away (object_rays) and find what it finds for a lane it is not
+ * given: no hit, no step. Most of a frame's background is such blocks (issue 21: 61 % of the peer
+ * scene's pixels take no step). */
 static inline int empty_lanes(const double start[UB_LANES])
 {
     int empty = 0;
     for (int l = 0; l < UB_LANES; l++)
         empty |= (start[l] == UB_CONE_EMPTY) << l;
     return empty;
+}
+
+/* The certified starts of the cones of a block's pixels (px[l], py[l]; lane 0 its top-left pixel,
+ * the last lane its bottom-right one, as block_pixels lays them out), computed by cone_fill;
+ * returns the empty lanes (empty_lanes). Cones are aligned blocks of pixels, so where the two
+ * corners share a cone every pixel between them does (a block of 4 x 4 pixels inside a cone of
+ * 8 x 8, mostly): one index, one load and one test for them all (issue 21: a load a lane was a
+ * third of chunk_primary's time, and 16 indices and tests a block a further 2 % of the peer
+ * render, most of whose blocks are background). Else one load a lane. No pixel coordinate is
+ * negative. */
+static int lane_starts(const ub_cone_cache *cc, const int px[UB_LANES], const int py[UB_LANES],
+                       double start[UB_LANES])
+{
+    const unsigned first = cone_index(cc, px[0], py[0]);
+    if (first == cone_index(cc, px[UB_LANES - 1], py[UB_LANES - 1])) {
+        double shared;
+        __atomic_load(&cc->start[first], &shared, __ATOMIC_RELAXED);
+        for (int l = 0; l < UB_LANES; l++)
+            start[l] = shared;
+        return shared == UB_CONE_EMPTY ? (int)((1u << UB_LANES) - 1) : 0;
+    }
+    for (int l = 0; l < UB_LANES; l++)
+        __atomic_load(&cc->start[cone_index(cc, px[l], py[l])], &start[l], __ATOMIC_RELAXED);
+    return empty_lanes(start);
 }
 
 /* Raise the t_min of the packet's camera rays to their blocks' certified starts. */

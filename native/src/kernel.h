@@ -244,8 +244,7 @@ static void chunk_rays(const ub_scene *sc, const sample_point *sp, int skip_back
         double start[UB_LANES];
         int empty = 0;
         if (sc->cones) { /* shared first steps: each ray starts where its cone is empty */
-            lane_starts(sc->cones, pix.px, pix.py, start);
-            empty = empty_lanes(start);
+            empty = lane_starts(sc->cones, pix.px, pix.py, start);
         }
         ch->background[b] = skip_background && (empty & ch->valid[b]) == ch->valid[b];
         if (ch->background[b])
