@@ -1333,13 +1333,15 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
                 double r[3] = {ps->pos0[0][l] - c[0], ps->pos0[1][l] - c[1], ps->pos0[2][l] - c[2]};
                 d[l] = sqrt(0.0 + r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
             }
-        for (int l = 0; l < UB_LANES; l++)
-            depth[0][l] = hit[l] ? (float)d[l] : UB_BACKGROUND_DEPTH;
-        /* The nearest hit's depth, a minimum per lane (a vector select: no reduction across the
-         * lanes here; a NaN depth is no hit's). */
+        /* With it, the nearest hit's depth, a minimum per lane (a vector select: no reduction across
+         * the lanes here; a NaN depth is no hit's). One loop: a second one reloaded the depths just
+         * stored, a vector load of stores the compiler had partly made lane by lane, which waited
+         * for them to reach the cache (issue 21). */
         for (int l = 0; l < UB_LANES; l++) {
-            const int real = ((lanes >> l) & 1) && hit[l] && depth[0][l] < 0.5f * UB_BACKGROUND_DEPTH;
-            cnt->nearest_lanes[l] = real && depth[0][l] < cnt->nearest_lanes[l] ? depth[0][l] : cnt->nearest_lanes[l];
+            const float z = hit[l] ? (float)d[l] : UB_BACKGROUND_DEPTH;
+            const int real = ((lanes >> l) & 1) && hit[l] && z < 0.5f * UB_BACKGROUND_DEPTH;
+            depth[0][l] = z;
+            cnt->nearest_lanes[l] = real && z < cnt->nearest_lanes[l] ? z : cnt->nearest_lanes[l];
         }
         put_lanes(pass[UB_PASS_DEPTH], u, stride, 1, depth, sample, S, PASS_DATA);
     }
