@@ -195,19 +195,14 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
         for (int i = 0; i < 3; i++)
             cv[i] = vd_load(c[i] + h);
         for (int i = 0; i < 3; i++) {
-            oc[i] = vd_add(vd_add(vd_add(vd_mul(vd_set1(w[i][0]), cv[0]), vd_mul(vd_set1(w[i][1]), cv[1])),
-                                  vd_mul(vd_set1(w[i][2]), cv[2])),
-                           vd_set1(w[i][3]));
+            oc[i] = vd_add(vd_row_dot(w[i], cv), vd_set1(w[i][3]));
             rel[i] = vd_sub(oc[i], vd_set1(o->bound_center[i]));
         }
         const vd r2 = vd_add(vd_add(vd_mul(rel[0], rel[0]), vd_mul(rel[1], rel[1])), vd_mul(rel[2], rel[2]));
         vd_store(ball + h, vd_sub(vd_sqrt(r2), vd_set1(o->bound_radius))); /* object units, < 0 inside */
         for (int k = 0; k < 4; k++) {
-            const double *b = o->slice_basis[k];
             double qk[VD_LANES];
-            vd_store(qk, vd_add(vd_add(vd_add(vd_set1(o->slice_origin[k]), vd_mul(vd_set1(b[0]), oc[0])),
-                                       vd_mul(vd_set1(b[1]), oc[1])),
-                                vd_mul(vd_set1(b[2]), oc[2])));
+            vd_store(qk, vd_offset_dot(o->slice_origin[k], o->slice_basis[k], oc));
             for (int l = 0; l < VD_LANES; l++)
                 q[k][h + l] = (float)qk[l];
         }

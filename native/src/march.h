@@ -19,6 +19,22 @@ typedef struct {
     float s_max[UB_LANES];      /* distance marched from entry before giving up */
 } ub_object_rays;
 
+#ifdef VD_LANES
+/* The sums of the lane loops' expressions, in their order, in double vectors (object_rays and the
+ * cones' object_clearance): row . p as (row0 p0 + row1 p1) + row2 p2, and offset + row . p as
+ * ((offset + row0 p0) + row1 p1) + row2 p2. */
+static inline vd vd_row_dot(const double row[3], const vd p[3])
+{
+    return vd_add(vd_add(vd_mul(vd_set1(row[0]), p[0]), vd_mul(vd_set1(row[1]), p[1])), vd_mul(vd_set1(row[2]), p[2]));
+}
+
+static inline vd vd_offset_dot(double offset, const double row[3], const vd p[3])
+{
+    return vd_add(vd_add(vd_add(vd_set1(offset), vd_mul(vd_set1(row[0]), p[0])), vd_mul(vd_set1(row[1]), p[1])),
+                  vd_mul(vd_set1(row[2]), p[2]));
+}
+#endif
+
 /* Clip each lane's ray against the object's bounding ball; returns the lanes that touch it. The
  * same operations in the same order for every lane, in double vectors where the kernel has them
  * (issue 21: the lane-by-lane loop was 8.6 % of the peer render), else lane by lane: only + - * / sqrt
@@ -45,11 +61,8 @@ static int object_rays(const ub_object *o, const ub_packet_rays *restrict r, con
             rd[i] = vd_load(r->dir[i] + h);
         }
         for (int i = 0; i < 3; i++) {
-            oo[i] = vd_add(vd_add(vd_add(vd_mul(vd_set1(w[i][0]), ro[0]), vd_mul(vd_set1(w[i][1]), ro[1])),
-                                  vd_mul(vd_set1(w[i][2]), ro[2])),
-                           vd_set1(w[i][3]));
-            od[i] = vd_add(vd_add(vd_mul(vd_set1(w[i][0]), rd[0]), vd_mul(vd_set1(w[i][1]), rd[1])),
-                           vd_mul(vd_set1(w[i][2]), rd[2]));
+            oo[i] = vd_add(vd_row_dot(w[i], ro), vd_set1(w[i][3]));
+            od[i] = vd_row_dot(w[i], rd);
             rel[i] = vd_sub(oo[i], vd_set1(center[i]));
         }
         /* |oo + t od - c|^2 = R^2 */
@@ -77,10 +90,8 @@ static int object_rays(const ub_object *o, const ub_packet_rays *restrict r, con
         for (int i = 0; i < 3; i++)
             pe[i] = vd_add(oo[i], vd_mul(t0, od[i]));
         for (int c = 0; c < 4; c++) {
-            const vd b0 = vd_set1(b[c][0]), b1 = vd_set1(b[c][1]), b2 = vd_set1(b[c][2]);
-            vd_store(q_enter[c] + h, vd_add(vd_add(vd_add(vd_set1(origin_q[c]), vd_mul(b0, pe[0])), vd_mul(b1, pe[1])),
-                                            vd_mul(b2, pe[2])));
-            vd_store(q_dir[c] + h, vd_add(vd_add(vd_mul(b0, od[0]), vd_mul(b1, od[1])), vd_mul(b2, od[2])));
+            vd_store(q_enter[c] + h, vd_offset_dot(origin_q[c], b[c], pe));
+            vd_store(q_dir[c] + h, vd_row_dot(b[c], od));
         }
         vd_store(t_enter + h, t0);
         vd_store(s_max + h, vd_sub(t1, t0));
