@@ -152,10 +152,10 @@ typedef struct {
 
 /* The bookkeeping every escape-time iteration shares, after computing the next |z|^2 (nr2):
  * lanes still iterating take it, the orbit trap and the potential's scale follow (gstep: 1 /
- * degree), the escape count grows, and lanes past the escape radius stop. Returns the lanes
- * still iterating. */
-static inline vm orbit_step_past(vf bail2, const int want, vm active, vf nr2, vf *r2, vf *n, vf *trap,
-                                 vf *gscale, vf gstep)
+ * degree), the escape count grows, and lanes with nr2 past bail2 stop (the escape radius squared;
+ * the doubled orbit passes 4|z|^2 and 4 bailout^2). Returns the lanes still iterating. */
+static inline vm orbit_step_within(vf bail2, const int want, vm active, vf nr2, vf *r2, vf *n, vf *trap,
+                                   vf *gscale, vf gstep)
 {
     *r2 = v_select(active, nr2, *r2);
     if (want & UB_WANT_TRAP)
@@ -166,11 +166,11 @@ static inline vm orbit_step_past(vf bail2, const int want, vm active, vf nr2, vf
     return m_andnot_gt(nr2, bail2, active);
 }
 
-/* orbit_step_past with the object's escape radius. */
+/* orbit_step_within with the object's escape radius. */
 static inline vm orbit_step(const ub_de_params *p, const int want, vm active, vf nr2, vf *r2, vf *n,
                                    vf *trap, vf *gscale, vf gstep)
 {
-    return orbit_step_past(p->bail2, want, active, nr2, r2, n, trap, gscale, gstep);
+    return orbit_step_within(p->bail2, want, active, nr2, r2, n, trap, gscale, gstep);
 }
 
 /* The doubled orbit at z = (a, b, c, d), and its 4|z|^2. 2s = 4 (b mu_1 + c mu_2 + d mu_3) from
@@ -267,9 +267,8 @@ static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de
                         j[k][c4] = v_mul(j[k][c4], s);
             }
         }
-        /* One step of f(z) = z^2 + mu: doubled_step, written out in the loop, not through a helper
-         * filling an array (that measured 2-3 % slower on the peer scene: GCC schedules the
-         * latency-bound chain differently); b, c and d only where the Jacobian reads them. */
+        /* One step of f(z) = z^2 + mu (doubled_step) into `next`, taken below by the lanes the
+         * Jacobian freezes or by all; b, c and d only where the Jacobian reads them. */
         const vf t = w.t;
         doubled_orbit next = w;
         vf nr2 = doubled_step(&next, &k4);
@@ -293,7 +292,7 @@ static inline __attribute__((always_inline)) void de_quaternion_body(const ub_de
              * loop-carried path of z (issue 21: 23.8 -> 13.8 cycles per iteration measured). */
             w = next;
         }
-        active = orbit_step_past(k4.bail2x4, want, active, nr2, &r2, &n, &trap, &gscale, half);
+        active = orbit_step_within(k4.bail2x4, want, active, nr2, &r2, &n, &trap, &gscale, half);
         if (!m_bits(active))
             break;
     }
