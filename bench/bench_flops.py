@@ -8,10 +8,10 @@ derivative), times the iterations of f the render runs: `stats["iterations"]` (t
 and its bisection) plus `stats["normal_iterations"]` (the six estimates of each hit's central
 differences, the same iteration; counted since 2026-12-01, before that the figure was the march's
 alone, which it also prints). GFLOP/s per core = FLOP / process CPU seconds of the whole call.
-Since 2026-12-05 the core carries the iteration's vector part as |v|^2 and 2 v.mu_v
-(estimators.h, vector_part_step): an iteration now executes 15 FLOP (2a: 1; a^2 + mu_0 - |v|^2: 3;
-the next |v|^2 and 2 v.mu_v: 7; |z|^2: 2; the derivative: 2), so the same iterations are also
-reported by the FLOP they execute; the issue's count (24) stays the headline, the work of a
+Since 2026-12-05 the core carries the iteration's vector part as |v|^2 and 2 v.mu_v, since
+2026-12-06 doubled (estimators.h, doubled_step): an iteration now executes 14 FLOP (4(a^2 + mu_0): 2;
+2a' from it and 2|v|^2: 2; the next 2|v|^2 and 2s: 6; 4|z|^2: 3; the derivative: 1; it was 15 from
+12-05 and 14 with Horner's form), so the same iterations are also reported by the FLOP they execute; the issue's count (24) stays the headline, the work of a
 quaternion iteration, comparable with the figures before.
 
 Each kernel (avx512, avx2) renders the peer scene (bench_core.py's camera and object, 1280x1024,
@@ -52,7 +52,7 @@ import bench_core  # noqa: E402  (puts the built module on the path)
 import unbound_core as uc  # noqa: E402
 
 FLOP_PER_ITERATION = 24
-FLOP_EXECUTED_PER_ITERATION = 15
+FLOP_EXECUTED_PER_ITERATION = 14
 WIDTHS = {"avx512": "1", "avx2": "0"}
 
 
