@@ -468,9 +468,11 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         sf->reflectivity[l] = 0.0f;
         sf->bias[l] = 0.0f;
         sf->alpha[l] = 1.0f;
-        if (((hit_lanes >> l) & 1) && tr->object[l] == UB_HIT_SEA)
-            sea_lanes |= 1 << l;
     }
+    if (sh->sea) /* apart: a bit word built in the loop above kept it from vector code */
+        for (int l = 0; l < UB_LANES; l++)
+            if (((hit_lanes >> l) & 1) && tr->object[l] == UB_HIT_SEA)
+                sea_lanes |= 1 << l;
     for (int k = 0; k < sc->object_count; k++) {
         if (cancelled(sc))
             return;
@@ -493,18 +495,30 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
          * A zoomed object's size near its anchor is its local unit, not the view's cut ball. */
         const double size = o->zoom.enabled ? 1.0 : fabs(o->bound_radius);
         const double back = 1e-6 * o->sigma_min * (1.0 + size);
+        /* Every lane at once, without branches (vector code; issue 21: lane by lane with a
+         * branch each, this loop was 3 % of the peer render); lanes of other objects keep what
+         * they have and take any finite step. */
+        const double alpha = o->normal_alpha, sigma_min = o->sigma_min;
+        const int linear = o->normal_delta == 1.0;
+        const float reflectivity = o->reflectivity;
         for (int l = 0; l < UB_LANES; l++) {
             for (int i = 0; i < 3; i++)
                 back_p[i][l] = sf->p[i][l] - back * pr->dir[i][l];
-            hb_[l] = 1.0f; /* lanes of other objects: any finite step */
+            const int m = (mine >> l) & 1;
+            const double path = (double)pr->t_base[l] + tr->t[l];
+            const double depth = path > 0.0 ? path : 0.0;
+            hb_[l] = m ? (float)(alpha * depth / sigma_min) : 1.0f; /* gradient_step's, delta 1 */
+            /* Secondary rays start a few hit thresholds off the surface. */
+            sf->bias[l] = m ? 4.0f * (e0[l] + e1[l] * (float)path) : sf->bias[l];
+            sf->reflectivity[l] = m ? reflectivity : sf->reflectivity[l];
+        }
+        const int zbuffer = o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0;
+        for (int l = 0; l < UB_LANES && (!linear || zbuffer); l++) {
             if (!((mine >> l) & 1))
                 continue;
-            double path = (double)pr->t_base[l] + tr->t[l];
-            hb_[l] = (float)(gradient_step(o, path) / o->sigma_min);
-            /* Secondary rays start a few hit thresholds off the surface. */
-            sf->bias[l] = 4.0f * (e0[l] + e1[l] * (float)path);
-            sf->reflectivity[l] = o->reflectivity;
-            if (o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0) {
+            if (!linear)
+                hb_[l] = (float)(gradient_step(o, (double)pr->t_base[l] + tr->t[l]) / o->sigma_min);
+            if (zbuffer) {
                 double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, n[3];
                 double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
                 if (zbuffer_normal(sc, sp, fx + l + hb->apron_x, fy + hb->apron_y, k,
@@ -524,15 +538,15 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
             float gb[3][UB_LANES];
             for (int a = 0; a < 3; a++)
                 v_store(gb[a], g[a]);
-            for (int l = 0; l < UB_LANES; l++) {
-                if (!((simd_lanes >> l) & 1))
-                    continue;
-                /* Normals transform with the inverse transpose of object -> world. */
-                for (int i = 0; i < 3; i++)
-                    nw[i][l] = o->world_to_object[0][i] * gb[0][l] + o->world_to_object[1][i] * gb[1][l]
-                             + o->world_to_object[2][i] * gb[2][l];
-                have_normal |= 1 << l;
-            }
+            /* Normals transform with the inverse transpose of object -> world (every lane, then
+             * a select: vector code). */
+            const double(*w)[4] = o->world_to_object;
+            for (int l = 0; l < UB_LANES; l++)
+                for (int i = 0; i < 3; i++) {
+                    const double n = w[0][i] * gb[0][l] + w[1][i] * gb[1][l] + w[2][i] * gb[2][l];
+                    nw[i][l] = (simd_lanes >> l) & 1 ? n : nw[i][l];
+                }
+            have_normal |= simd_lanes;
         }
         const ub_material *mat = &o->material;
         int need_trap = want_trap || o->color_mode == UB_COLOR_ORBIT_TRAP
