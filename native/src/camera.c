@@ -55,6 +55,20 @@ static void clip_plane_map(const double inv[4][4], int width, int height, double
     }
 }
 
+/* The camera's clip_depth_ratio (scene.h): for a perspective projection whose NDC depth and w
+ * depend on the view depth alone (no x or y terms in their rows, as in Blender's, lens shift
+ * included), the clip planes are planes of constant view depth, which every ray from the eye
+ * meets at distances in the ratio of their depths, clip end / clip start; else 0. */
+static double clip_depth_ratio(const ub_camera *cam, const double projection[4][4])
+{
+    if (cam->orthographic || projection[2][0] != 0.0 || projection[2][1] != 0.0 || projection[3][0] != 0.0
+        || projection[3][1] != 0.0)
+        return 0.0;
+    const double *v = cam->clip_start.origin, *w = cam->clip_end.origin; /* image point (0, 0) */
+    const double ratio = (w[2] / w[3]) / (v[2] / v[3]);
+    return isfinite(ratio) && ratio > 1.0 ? ratio : 0.0;
+}
+
 const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
                               const double projection[4][4])
 {
@@ -83,6 +97,7 @@ const char *ub_camera_prepare(ub_camera *cam, const double cam_to_world[4][4],
     clip_plane_map(inv_projection, cam->width, cam->height, 1.0, &cam->clip_end);
     /* A perspective projection's last row is (0, 0, -1, 0); an orthographic one's (0, 0, 0, 1). */
     cam->orthographic = projection[3][2] == 0.0;
+    cam->clip_depth_ratio = clip_depth_ratio(cam, projection);
     if (!(projection[0][0] != 0.0 && projection[1][1] != 0.0))
         return "camera.projection must have non-zero [0][0] and [1][1]";
     /* Pixel footprint: width of one pixel on the plane at unit distance (perspective) or on the

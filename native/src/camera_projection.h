@@ -37,8 +37,9 @@ static inline void projection_row_of(const ub_clip_plane_map *clip_start, const 
  * the rays 13 % of a render): the points are homogeneous, v on the clip-start plane and w on the
  * clip-end plane, and the divide by their fourth coordinate cancels where it can. */
 static inline __attribute__((always_inline)) void projection_ray_in_row(const projection_row *row, int orthographic,
-                                                                        double px, double ov[3], double dv[3],
-                                                                        double *t_min, double *t_max)
+                                                                        int by_ratio, double depth_ratio, double px,
+                                                                        double ov[3], double dv[3], double *t_min,
+                                                                        double *t_max)
 {
     double v[4], w[4];
     for (int i = 0; i < 4; i++) {
@@ -50,14 +51,20 @@ static inline __attribute__((always_inline)) void projection_ray_in_row(const pr
          * v3's sign, and it meets the planes at t = |v.xyz| / |v3| and |w.xyz| / |w3| (Blender
          * clips at view-axis depths, so t runs between the two planes along the ray). */
         double lv = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-        double lw = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
         double to_unit = copysign(1.0, v[3]) / lv;
         for (int i = 0; i < 3; i++) {
             dv[i] = v[i] * to_unit;
             ov[i] = 0.0;
         }
         *t_min = lv / fabs(v[3]);
-        *t_max = lw / fabs(w[3]);
+        /* by_ratio: t_max from the camera's clip_depth_ratio, without w's root and divide (issue
+         * 21: the peer render 1.015x): the planes' depths are in that ratio along every ray. */
+        if (by_ratio) {
+            *t_max = *t_min * depth_ratio;
+        } else {
+            double lw = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+            *t_max = lw / fabs(w[3]);
+        }
     } else {
         /* Parallel rays from the point pn on the clip-start plane towards pf on the clip-end one
          * (w = 1 for Blender's orthographic matrices, where the divides are exact). */
@@ -89,7 +96,8 @@ static inline void projection_ray_view_kind(const ub_camera *cam, int orthograph
 {
     projection_row row;
     projection_row_of(&cam->clip_start, &cam->clip_end, py, &row);
-    projection_ray_in_row(&row, orthographic, px, ov, dv, t_min, t_max);
+    projection_ray_in_row(&row, orthographic, cam->clip_depth_ratio > 0.0, cam->clip_depth_ratio, px, ov, dv, t_min,
+                          t_max);
 }
 
 /* The view-space ray (ov, dv) in world space, by the camera's cam_to_world. */

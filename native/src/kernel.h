@@ -91,13 +91,16 @@ static int pixel_ray(const ub_camera *cam, int px, int py, const sample_point *s
  * one call per lane (issue 21: the rays' divides and square roots, lane by lane, took 12 % of a
  * render). Each lane's row terms come from its own py, so a packet may span rows (a block).
  * with_range 0: the t range is not wanted and left empty, which saves two of the three divides
- * and one of the two square roots. Always inlined, so that `orthographic` and `with_range` are
- * constants and the loop has no branch. */
+ * and one of the two square roots; by_ratio: t_max from the camera's clip_depth_ratio (one of each).
+ * Always inlined, so that `orthographic`, `with_range` and `by_ratio` are constants and the loop
+ * has no branch. */
 static inline __attribute__((always_inline)) void projection_packet(const ub_camera *restrict cam, int orthographic,
-                                                                    int with_range, const double px[UB_LANES],
+                                                                    int with_range, int by_ratio,
+                                                                    const double px[UB_LANES],
                                                                     const double py[UB_LANES],
                                                                     ub_packet_rays *restrict pr)
 {
+    const double depth_ratio = cam->clip_depth_ratio;
     /* Local copies of what the lanes share: nothing the lanes write can alias them, so the
      * vectoriser loads them once (a copy of the whole camera cost a store-forwarding stall). */
     const ub_clip_plane_map clip_start = cam->clip_start, clip_end = cam->clip_end;
@@ -107,7 +110,7 @@ static inline __attribute__((always_inline)) void projection_packet(const ub_cam
         double ov[3], dv[3], o[3], d[3], t_min, t_max;
         projection_row row;
         projection_row_of(&clip_start, &clip_end, py[l], &row);
-        projection_ray_in_row(&row, orthographic, px[l], ov, dv, &t_min, &t_max);
+        projection_ray_in_row(&row, orthographic, by_ratio, depth_ratio, px[l], ov, dv, &t_min, &t_max);
         pr->t_min[l] = with_range ? t_min : 0.0; /* unused: the compiler drops its arithmetic */
         pr->t_max[l] = with_range ? t_max : 0.0;
         view_to_world(cam_to_world, ov, dv, o, d);
@@ -134,13 +137,15 @@ static int camera_rays(const ub_camera *cam, const int px[UB_LANES], const int p
             image_y[l] = py[l] + sp->off[1];
         }
         if (cam->orthographic && with_range)
-            projection_packet(cam, 1, 1, image_x, image_y, pr);
+            projection_packet(cam, 1, 1, 0, image_x, image_y, pr);
         else if (cam->orthographic)
-            projection_packet(cam, 1, 0, image_x, image_y, pr);
+            projection_packet(cam, 1, 0, 0, image_x, image_y, pr);
+        else if (with_range && cam->clip_depth_ratio > 0.0)
+            projection_packet(cam, 0, 1, 1, image_x, image_y, pr);
         else if (with_range)
-            projection_packet(cam, 0, 1, image_x, image_y, pr);
+            projection_packet(cam, 0, 1, 0, image_x, image_y, pr);
         else
-            projection_packet(cam, 0, 0, image_x, image_y, pr);
+            projection_packet(cam, 0, 0, 0, image_x, image_y, pr);
         return UB_ALL_LANES;
     }
     int seen = 0;

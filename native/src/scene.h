@@ -71,6 +71,11 @@ typedef struct {
      * the NDC (2 px / width - 1, 2 py / height - 1) are affine in it, so the maps fold them in
      * and a ray costs no per-pixel NDC (camera_projection.h). */
     ub_clip_plane_map clip_start, clip_end;
+    /* A perspective projection whose clip planes are planes of constant view depth (Blender's,
+     * lens shift included): every ray from the eye meets them at t_min and t_max in the ratio of
+     * their depths, clip end / clip start, the same for every pixel. 0: not such a projection
+     * (the clip-end plane gives each ray's t_max). camera_projection.h. */
+    double clip_depth_ratio;
     /* Unit vector of the camera's viewing axis in world space (-Z of the camera). */
     double forward[3];
     double position[3];
