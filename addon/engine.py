@@ -208,10 +208,11 @@ def normalised(buffer, native, samples_done):
     return buffer * (np.float32(1.0) / np.float32(samples_done))
 
 
-def result_passes(result):
+def result_passes(result, layer_name=None):
     """(layer, view names, passes) of a RenderResult: exactly the passes it holds (registered when
-    the render started; a handler may have toggled one since), in the table's order."""
-    layer = result.layers[0]
+    the render started; a handler may have toggled one since), in the table's order. `layer_name`:
+    the view layer's, in a result of every layer (frame_result); a band holds only its own."""
+    layer = result.layers[0] if layer_name is None else result.layers[layer_name]
     names = {p.name for p in layer.passes}
     return layer, [v.name for v in result.views] or [""], [p for p in passes.PASSES if p.name in names]
 
@@ -230,6 +231,27 @@ def write_pass(layer, render_pass, view, values):
 # a window of fewer than twice as many is one band (a 640x360 frame: 2 bands cost an animation about
 # 1 ms of CPU a frame more than one, bench/README.md).
 BAND_MIN_PIXELS = 1 << 17
+
+
+# Without a window (blender --background, a farm, the bpy module) Blender shows no band as it
+# finishes, so there a window rendered as one band is written straight into Blender's own result of
+# the frame (frame_result), not into a band result: Blender allocates and zeroes a band's passes in
+# begin_result and copies them into its own in end_result, a third of the CPU an F12 of a small
+# frame spends beyond the core (issue 21: the 48-frame 640x360 animation of bench_f12.py
+# --animation, 3.7 -> 2.4 ms a frame beside the core's 12.5). False: always through bands.
+DIRECT_IN_BACKGROUND = True
+
+
+def frame_result(engine, layer_name):
+    """Blender's own result of the frame (get_result: every view layer and view), its passes
+    allocated: Blender allocates them at a render's first update_result (unconditionally, as it
+    has since 3.0), here of a one-pixel band, which end_result(cancel=True) then discards."""
+    pixel = engine.begin_result(0, 0, 1, 1, layer=layer_name)
+    try:
+        engine.update_result(pixel)
+    finally:
+        engine.end_result(pixel, cancel=True)
+    return engine.get_result()
 
 
 def band_rows(width, height, tile_size):
@@ -278,6 +300,8 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
     options = dict(shading=shading, poll_interval=0.02, clear_unfinished=True, **export.render_options(scene))
     rows = band_rows(w, h, options["tile_size"])
     bands = -(-h // rows)
+    layer_name = depsgraph.view_layer.name
+    direct = bands == 1 and DIRECT_IN_BACKGROUND and bpy.app.background and not engine.is_preview
     progress = Progress(engine, label, 1, 1)
     cameras = {}
     buffers = None
@@ -286,10 +310,11 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
     stats, ratio, cancelled = None, None, False
     for band, top in enumerate(range(0, h, rows)):
         bh = min(rows, h - top)
-        result = engine.begin_result(0, top, w, bh, layer=depsgraph.view_layer.name)
+        result = frame_result(engine, layer_name) if direct else \
+            engine.begin_result(0, top, w, bh, layer=layer_name)
         keep = False
         try:
-            layer, views, present = result_passes(result)
+            layer, views, present = result_passes(result, layer_name if direct else None)
             if buffers is None:
                 # Depth is always rendered: the core's precision check reads it.
                 wanted = dict([("depth", 1)] + [(p.native, p.channels) for p in present])
@@ -318,7 +343,8 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
                 camera_rays += w * bh
             keep = True
         finally:
-            engine.end_result(result, cancel=not keep)
+            if not direct:
+                engine.end_result(result, cancel=not keep)
         # Esc between bands too: a band can end before the core's first poll.
         if cancelled or (top + bh < h and progress.update(0, 0, (band + 1) / bands, force=True)):
             cancelled = True

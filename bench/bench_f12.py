@@ -22,7 +22,9 @@ against the bare core rendering the same 48 frames' scenes: each frame exported 
 (untimed), then one core call per frame into buffers of the same passes. Blender's PNG writing
 is the user's cost with either (the core alone writes no file), so it is measured apart: the same
 48 frames as F12s that write nothing (frame_set, then bpy.ops.render.render()), whose difference
-to the animation is what saving the frames costs. Interleaved rounds, medians of CPU time; and
+to the animation is what saving the frames costs; and those F12s once more through a band result
+(engine.DIRECT_IN_BACKGROUND off), as Blender with a window renders them, where in the background
+a frame of one band goes straight into Blender's result. Interleaved rounds, medians of CPU time; and
 what an F12 frame costs beyond its core calls (its CPU less theirs: steadier than the ratio, which
 moves with the core's own time), split into the calling thread's CPU (time.thread_time) and the
 other threads' (Blender's thread pool), and the core calls' own CPU against the bare core's.
@@ -213,8 +215,20 @@ def animation(width, height, repeats, frames=48):
         finally:
             utils.native = native
 
-    rows = {"animation": [], "f12": [], "core": []}
-    runs = {"animation": lambda: bpy.ops.render.render(animation=True), "f12": f12_each_frame, "core": bare_core}
+    engine = sys.modules[module + ".engine"]
+
+    def f12_through_bands():
+        """The same F12s through a band result, as Blender with a window renders (in the background
+        a frame of one band goes straight into Blender's result: engine.DIRECT_IN_BACKGROUND)."""
+        engine.DIRECT_IN_BACKGROUND = False
+        try:
+            f12_each_frame()
+        finally:
+            engine.DIRECT_IN_BACKGROUND = True
+
+    rows = {"animation": [], "f12": [], "f12_bands": [], "core": []}
+    runs = {"animation": lambda: bpy.ops.render.render(animation=True), "f12": f12_each_frame,
+            "f12_bands": f12_through_bands, "core": bare_core}
     beside, beside_calling = [], []  # ms of CPU a frame of F12 beyond its core calls: all, calling thread
     within = []  # ms of CPU a frame of F12's core calls
     for _ in range(repeats):  # interleaved, so that load changes hit all alike
@@ -222,15 +236,16 @@ def animation(width, height, repeats, frames=48):
             inside.update(process=0.0, calling=0.0)
             calling = time.thread_time()
             rows[name].append(timed(run))
-            if name == "f12":
+            if name == "f12":  # the F12s in the background, as the animation renders
                 beside.append((rows[name][-1][1] - inside["process"]) / frames * 1e3)
                 beside_calling.append((time.thread_time() - calling - inside["calling"]) / frames * 1e3)
                 within.append(inside["process"] / frames * 1e3)
-    for name in ("animation", "f12"):
+    labels = {"animation": "animation (PNGs)", "f12": "F12 per frame, no files",
+              "f12_bands": "the same F12s through a band (as with a window)"}
+    for name, label in labels.items():
         ratio = [a[1] / b[1] for a, b in zip(rows[name], rows["core"])]
         print("%s: wall %s s, CPU %s s; CPU / bare core %s" % (
-            "animation (PNGs)" if name == "animation" else "F12 per frame, no files", summary([t[0] for t in rows[name]]),
-            summary([t[1] for t in rows[name]]), summary(ratio)))
+            label, summary([t[0] for t in rows[name]]), summary([t[1] for t in rows[name]]), summary(ratio)))
     print("F12 per frame beyond its core calls (Blender's frame change and pipeline, the add-on): %s ms of CPU; "
           "of it the calling thread %s ms, the other threads %s ms"
           % (summary(beside), summary(beside_calling), summary([a - b for a, b in zip(beside, beside_calling)])))

@@ -185,8 +185,10 @@ def esc_in_the_first_sample_keeps_the_tiles_done(S, mod):
 
 def one_sample_bands(S, mod, sizes):
     """One sample at each size: the rectangles the render's bands asked Blender for, and how much
-    of the frame the fractal covers."""
+    of the frame the fractal covers. Through bands always, as Blender with a window renders (in the
+    background a window of one band goes straight into Blender's result: direct_frame_result)."""
     found = {}
+    mod.engine.DIRECT_IN_BACKGROUND = False
     for width, height in sizes:
         scene = scene_with_samples(S, width, height, 1)
         scene.unbound.shadows = 'HARD'
@@ -201,6 +203,69 @@ def one_sample_bands(S, mod, sizes):
                                                  hit_rows=int(hit.any(axis=1).sum()),
                                                  rendered=float((px["ViewLayer.Combined.A"] > 0).mean()))
     S.report(found=found)
+
+
+def direct_frame_result(S, mod, width, height):
+    """One sample of a window of one band, in the background: written straight into Blender's
+    result of the frame (engine.frame_result), and the same scene through a band (DIRECT_IN_BACKGROUND
+    off). Two view layers (the second without the sun's collection, and with other passes) and two
+    stereo views, so that a pass written into the wrong layer or view shows. Every channel of the
+    EXRs, and the rectangles begin_result was asked for (per view layer)."""
+    scene = scene_with_samples(S, width, height, 1)
+    sun = bpy.data.objects["Sun"]
+    lights = bpy.data.collections.new("Lights")
+    scene.collection.children.link(lights)
+    lights.objects.link(sun)
+    scene.collection.objects.unlink(sun)
+    second = scene.view_layers.new("Second")
+    second.layer_collection.children["Lights"].exclude = True
+    second.unbound.use_pass_position = True
+    scene.render.use_multiview = True
+    scene.render.views_format = 'STEREO_3D'
+    scene.camera.data.stereo.interocular_distance = 0.3
+    S.exr_output(scene)
+    scene.render.image_settings.views_format = 'MULTIVIEW'
+    found = {}
+    for direct in (True, False):
+        mod.engine.DIRECT_IN_BACKGROUND = direct
+        spies, restore = spied(mod)
+        try:
+            found[direct] = (read_passes(S, scene, "direct_%d.exr" % direct), [spy.results for spy in spies])
+        finally:
+            restore()
+            mod.engine.DIRECT_IN_BACKGROUND = True
+    (a, rects_direct), (b, rects_bands) = found[True], found[False]
+    combined = {(layer, view): np.stack([a["%s.Combined.%s.%s" % (layer, view, c)] for c in "RGBA"], -1)
+                for layer in ("ViewLayer", "Second") for view in ("left", "right")}
+    S.report(channels=sorted(a), channels_bands=sorted(b),
+             unequal=sorted(k for k in a if k in b and not np.array_equal(a[k], b[k])),
+             rects_direct=rects_direct, rects_bands=rects_bands,
+             layers_differ=not np.array_equal(combined["ViewLayer", "left"], combined["Second", "left"]),
+             views_differ=not np.array_equal(combined["ViewLayer", "left"], combined["ViewLayer", "right"]),
+             hit=float((a["ViewLayer.Depth.left.Z"] < 1e6).mean()))  # the background's depth is 1e10
+
+
+def direct_failure_writes_no_file(S, mod):
+    """A core failure in a window of one band written straight into Blender's result (background):
+    an error report and no file, as through bands."""
+    scene = scene_with_samples(S, 96, 64, 1)
+    original = mod.utils.native
+
+    class Core:
+        def __getattr__(self, name):
+            return getattr(original(), name)
+
+        def render(self, *args, **kw):
+            raise MemoryError()
+
+    spies, restore = spied(mod)
+    mod.utils.native = lambda: Core()
+    try:
+        outcome = S.attempt(scene, "direct_failed.png")
+    finally:
+        mod.utils.native = original
+        restore()
+    S.report(outcome=outcome, rects=spies[0].results)
 
 
 def failure_mid_render_writes_no_file(S, mod, samples=4):
@@ -226,11 +291,12 @@ def failure_mid_render_writes_no_file(S, mod, samples=4):
 
 
 
-def frame_memory_kept(S, mod, width, height, renders):
+def frame_memory_kept(S, mod, width, height, renders, direct=True):
     """Page faults per F12 of a scene of seven passes, after a first render (issue 21,
     addon/frame_memory.py): whether the add-on kept the frame's memory, and which environments
-    it would keep it in."""
+    it would keep it in. direct: DIRECT_IN_BACKGROUND (False: through a band, as with a window)."""
     import resource
+    mod.engine.DIRECT_IN_BACKGROUND = direct
     scene = S.empty_scene(width, height)
     S.add_camera(scene)
     S.add_fractal(max_iterations=8)
