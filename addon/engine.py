@@ -233,14 +233,20 @@ def write_pass(layer, render_pass, view, values):
 BAND_MIN_PIXELS = 1 << 17
 
 
-# Without a window (blender --background, a farm, the bpy module) Blender shows no band as it
-# finishes, so there a window rendered as one band is written straight into Blender's own result of
-# the frame (frame_result), not into a band result: Blender allocates and zeroes a band's passes in
-# begin_result and copies them into its own in end_result, a third of the CPU an F12 of a small
-# frame spends beyond the core (issue 21: the 48-frame 640x360 animation of bench_f12.py
-# --animation, 1.31x -> 1.20x the bare core's CPU, both ways alternated in one run). False: always
-# through bands.
+# Without a window (blender --background, a farm, the bpy module) Blender shows no band and no
+# sample as it finishes, so there a window rendered as one band, or as one result of several
+# samples, is written straight into Blender's own result of the frame (frame_result), not into a
+# band result: Blender allocates and zeroes a band's passes in begin_result and copies them into its
+# own in end_result, a third of the CPU an F12 of a small frame spends beyond the core (issue 21:
+# the 48-frame 640x360 animation of bench_f12.py --animation, 1.31x -> 1.20x the bare core's CPU,
+# both ways alternated in one run), and with several samples a full copy of the passes in memory.
+# False: always through bands.
 DIRECT_IN_BACKGROUND = True
+
+
+def direct_in_background(engine):
+    """Whether this render writes straight into Blender's result (DIRECT_IN_BACKGROUND)."""
+    return DIRECT_IN_BACKGROUND and bpy.app.background and not engine.is_preview
 
 
 def frame_result(engine, layer_name):
@@ -302,7 +308,7 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
     rows = band_rows(w, h, options["tile_size"])
     bands = -(-h // rows)
     layer_name = depsgraph.view_layer.name
-    direct = bands == 1 and DIRECT_IN_BACKGROUND and bpy.app.background and not engine.is_preview
+    direct = bands == 1 and direct_in_background(engine)
     progress = Progress(engine, label, 1, 1)
     cameras = {}
     buffers = None
@@ -423,13 +429,17 @@ def _render_frame(engine, depsgraph, times):
     # The result covers the window: Blender places it in the full frame (or crops to it). It holds
     # the passes registered when the render started; a handler may have toggled one since (an
     # animation's frame_change_pre): exactly the result's passes are rendered and written.
-    result = engine.begin_result(0, 0, w, h, layer=view_layer.name)
-    # A failure discards the result (end_result(cancel=True)): a failed frame is never shown or
-    # saved as rendered. A cancel (Esc) keeps what was rendered, as Cycles does: the samples done,
-    # and of a first sample cut short the tiles done (the others transparent black).
+    shows_samples = UPDATE_IN_BACKGROUND or not bpy.app.background
+    direct = not shows_samples and direct_in_background(engine)
+    result = frame_result(engine, view_layer.name) if direct else \
+        engine.begin_result(0, 0, w, h, layer=view_layer.name)
+    # A failure discards the result (end_result(cancel=True); straight into Blender's result, the
+    # error alone): a failed frame is never shown or saved as rendered. A cancel (Esc) keeps what
+    # was rendered, as Cycles does: the samples done, and of a first sample cut short the tiles
+    # done (the others transparent black).
     keep = False
     try:
-        layer, views, present = result_passes(result)
+        layer, views, present = result_passes(result, view_layer.name if direct else None)
         # Zeros: what a cancelled first sample did not reach stays transparent black.
         buffers = {p.native: core.pass_array(h, w, p.channels, zero=True) for p in present}
         # Depth is always rendered: the core's precision check reads it (one float per pixel).
@@ -447,7 +457,6 @@ def _render_frame(engine, depsgraph, times):
                        shared_steps_cache=core.shared_steps_cache(), **export.render_options(scene))
         started = time.perf_counter()
         uploading = 0.0
-        shows_samples = UPDATE_IN_BACKGROUND or not bpy.app.background
         stats = None
         cancelled = False
 
@@ -512,7 +521,8 @@ def _render_frame(engine, depsgraph, times):
         LAST_STATS.update(stats)
         keep = True
     finally:
-        engine.end_result(result, cancel=not keep)
+        if not direct:
+            engine.end_result(result, cancel=not keep)
     _finish(engine, core, label, stats, cancelled, done, samples, time.perf_counter() - started)
 
 

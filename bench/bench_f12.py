@@ -2,7 +2,8 @@
 after each sample, as Cycles does), in bpy.
 
 For 1 and 8 samples at 1920x1080: F12 (bpy.ops.render.render, nothing written) against one native
-render of all samples into the same buffers (what the engine did before), the same scene. Medians
+render of all samples into the same buffers (what the engine did before), the same scene; and F12
+through band results (engine.DIRECT_IN_BACKGROUND off), as Blender with a window renders. Medians
 with min-max over --repeats rounds of wall time and of this process's CPU time (the machine may be
 shared: the CPU ratio is the steadier figure).
 
@@ -11,7 +12,8 @@ each sample's time within the shutter): F12 of --samples samples of a moving, mu
 with a sun, motion blur off against on; and the engine's own figure for the scene's evaluation and
 export (LAST_STATS['motion_blur_seconds']) per sample.
 
-With --memory: the peak resident memory of one F12 at --res with every pass on, 1 sample, against
+With --memory: the peak resident memory of one F12 at --res with every pass on, 1 sample (or
+--samples, given with --memory; then F12 through a band result as well: engine.DIRECT_IN_BACKGROUND off), against
 one copy of the passes (4 bytes per channel per pixel) and against a bare core call into one copy;
 each measured in a fresh process (the peak is a process's high-water mark: ru_maxrss after the
 render minus before it, the scene built and a small render done first).
@@ -29,7 +31,7 @@ what an F12 frame costs beyond its core calls (its CPU less theirs: steadier tha
 moves with the core's own time), split into the calling thread's CPU (time.thread_time) and the
 other threads' (Blender's thread pool), and the core calls' own CPU against the bare core's.
 
-    python bench/bench_f12.py [--repeats 3] [--res 1920x1080] [--memory] [--motion-blur [--samples 16]]
+    python bench/bench_f12.py [--repeats 3] [--res 1920x1080] [--memory [--samples N]] [--motion-blur [--samples 16]]
                               [--animation [--res 640x360]]
 """
 import argparse
@@ -81,9 +83,10 @@ def peak_rss_bytes():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024   # kilobytes on Linux
 
 
-def memory_child(mode, width, height):
-    """One render in this fresh process (`mode` 'f12' or 'core'), every pass on, 1 sample: prints
-    the growth of the peak resident memory and the size of one copy of the passes."""
+def memory_child(mode, width, height, samples=1):
+    """One render in this fresh process (`mode` 'f12', 'f12-bands' or 'core'), every pass on,
+    `samples` samples: prints the growth of the peak resident memory and the size of one copy of
+    the passes."""
     module = ensure_extension(prog="bench_f12")
     export = sys.modules[module + ".export"]
     passes = sys.modules[module + ".passes"]
@@ -91,6 +94,7 @@ def memory_child(mode, width, height):
     scene = new_scene(width, height, world_color=(0.05, 0.05, 0.05))
     add_camera(scene, (0.4, -3.0, 0.9), (0.0, 0.0, 0.0), lens=50.0)
     bpy.ops.object.unbound_fractal_add(use_cursor=False)
+    scene.unbound.samples = samples
     vl = scene.view_layers[0]
     for toggle, _label, _description in passes.toggles():
         setattr(vl.unbound, toggle, True)
@@ -101,7 +105,8 @@ def memory_child(mode, width, height):
     scene.render.resolution_percentage = 100
     dg = bpy.context.evaluated_depsgraph_get()
     before = peak_rss_bytes()
-    if mode == "f12":
+    if mode.startswith("f12"):
+        sys.modules[module + ".engine"].DIRECT_IN_BACKGROUND = mode == "f12"
         bpy.ops.render.render()
     else:
         camera = export.camera_description(EyeCamera(), dg, width, height)
@@ -112,19 +117,20 @@ def memory_child(mode, width, height):
     print("MEMORY %s %d %d" % (mode, peak_rss_bytes() - before, 4 * channels * width * height))
 
 
-def memory(width, height, repeats):
+def memory(width, height, repeats, samples=1):
     import subprocess
     rows = {}
+    labels = {"f12": "F12", "f12-bands": "F12 through a band result", "core": "bare core call"}
     for _ in range(repeats):
-        for mode in ("f12", "core"):
-            out = subprocess.run([sys.executable, __file__, "--memory-child", mode, "--res", "%dx%d" % (width, height)],
-                                 capture_output=True, text=True, check=True).stdout
+        for mode in ("f12", "f12-bands", "core") if samples > 1 else ("f12", "core"):
+            out = subprocess.run([sys.executable, __file__, "--memory-child", mode, "--res", "%dx%d" % (width, height),
+                                  "--samples", str(samples)], capture_output=True, text=True, check=True).stdout
             line = [x for x in out.splitlines() if x.startswith("MEMORY ")][-1].split()
             rows.setdefault(mode, []).append(int(line[2]))
             copy = int(line[3])
     for mode, values in rows.items():
-        print("%s at %dx%d, every pass, 1 sample: peak growth %s MB = %s copies of the passes (one copy %.0f MB)"
-              % ("F12" if mode == "f12" else "bare core call", width, height, summary([v / 1e6 for v in values]),
+        print("%s at %dx%d, every pass, %d sample%s: peak growth %s MB = %s copies of the passes (one copy %.0f MB)"
+              % (labels[mode], width, height, samples, "" if samples == 1 else "s", summary([v / 1e6 for v in values]),
                  summary([v / copy for v in values]), copy / 1e6))
 
 
@@ -261,23 +267,33 @@ def main():
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--res", default="1920x1080")
     ap.add_argument("--memory", action="store_true")
-    ap.add_argument("--memory-child", choices=("f12", "core"))
+    ap.add_argument("--memory-child", choices=("f12", "f12-bands", "core"))
     ap.add_argument("--motion-blur", action="store_true")
-    ap.add_argument("--samples", type=int, default=16)
+    ap.add_argument("--samples", type=int, default=None, help="--motion-blur: 16; --memory: 1")
     ap.add_argument("--animation", action="store_true")
     args = ap.parse_args()
     width, height = map(int, args.res.split("x"))
     if args.memory_child:
-        return memory_child(args.memory_child, width, height)
+        return memory_child(args.memory_child, width, height, args.samples or 1)
     if args.memory:
-        return memory(width, height, args.repeats)
+        return memory(width, height, args.repeats, args.samples or 1)
     if args.motion_blur:
-        return motion_blur(width, height, args.samples, args.repeats)
+        return motion_blur(width, height, args.samples or 16, args.repeats)
     if args.animation:
         return animation(width, height, args.repeats)
     module = ensure_extension(prog="bench_f12")
     export = sys.modules[module + ".export"]
+    engine = sys.modules[module + ".engine"]
     core = sys.modules[module + ".utils"].native()
+
+    def f12_through_bands():
+        """F12 through band results, as Blender with a window renders (engine.DIRECT_IN_BACKGROUND)."""
+        engine.DIRECT_IN_BACKGROUND = False
+        try:
+            bpy.ops.render.render()
+        finally:
+            engine.DIRECT_IN_BACKGROUND = True
+
     for samples in (1, 8):
         scene = new_scene(width, height, world_color=(0.05, 0.05, 0.05))
         add_camera(scene, (0.4, -3.0, 0.9), (0.0, 0.0, 0.0), lens=50.0)
@@ -292,15 +308,18 @@ def main():
             core.render(camera, export.fractal_objects(dg), buffers, shading=export.shading_description(dg),
                         **export.render_options(scene))
 
-        f12, one = [], []
-        for _ in range(args.repeats):  # interleaved, so that load changes hit both alike
+        f12, bands, one = [], [], []
+        for _ in range(args.repeats):  # interleaved, so that load changes hit all alike
             f12.append(timed(lambda: bpy.ops.render.render()))
+            bands.append(timed(f12_through_bands))
             one.append(timed(direct))
         ratio = [a[1] / b[1] for a, b in zip(f12, one)]
+        ratio_bands = [a[1] / b[1] for a, b in zip(bands, one)]
         print("%d sample%s at %dx%d: F12 wall %s s, CPU %s s | one core call wall %s s, CPU %s s | "
-              "CPU ratio %s" % (samples, "" if samples == 1 else "s", width, height, summary([t[0] for t in f12]),
-                                summary([t[1] for t in f12]), summary([t[0] for t in one]),
-                                summary([t[1] for t in one]), summary(ratio)))
+              "CPU ratio %s; through band results %s" % (
+                  samples, "" if samples == 1 else "s", width, height, summary([t[0] for t in f12]),
+                  summary([t[1] for t in f12]), summary([t[0] for t in one]), summary([t[1] for t in one]),
+                  summary(ratio), summary(ratio_bands)))
 
 
 if __name__ == "__main__":

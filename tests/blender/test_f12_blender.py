@@ -3,6 +3,8 @@ finish, the stats line says Sample k/N and the time remaining, the progress bar 
 keeps the samples done, equal bit for bit to a render of that many samples."""
 import re
 
+import pytest
+
 
 def test_samples_are_shown_as_they_finish(run_bpy):
     r = run_bpy("f12.samples_shown_as_they_finish", args={"samples": 8})
@@ -70,13 +72,15 @@ def test_one_sample_renders_in_bands_of_at_least_BAND_MIN_PIXELS(run_bpy):
         assert found["hit_rows"] > height // 3, found
 
 
-def test_one_band_in_the_background_goes_straight_into_blenders_result(run_bpy):
-    """Issue 21: without a window nothing shows a band, so a window of one band (fewer than 2^18
-    pixels) is written into Blender's own result of the frame, not into a band Blender allocates,
-    zeroes and merges (a third of a small frame's CPU beyond the core). Every channel of two view
-    layers (the second without the sun, with other passes) and two stereo views, bit for bit as
-    through a band; begin_result asked only for the one pixel that has Blender allocate its passes."""
-    r = run_bpy("f12.direct_frame_result", args={"width": 160, "height": 120})
+@pytest.mark.parametrize("samples", [1, 3])
+def test_in_the_background_renders_go_straight_into_blenders_result(run_bpy, samples):
+    """Issue 21: without a window nothing shows a band or a sample, so a window of one band (fewer
+    than 2^18 pixels), or of several samples, is written into Blender's own result of the frame, not
+    into a band Blender allocates, zeroes and merges (a third of a small frame's CPU beyond the
+    core; with samples, a full copy of the passes). Every channel of two view layers (the second
+    without the sun, with other passes) and two stereo views, bit for bit as through a band;
+    begin_result asked only for the one pixel that has Blender allocate its passes."""
+    r = run_bpy("f12.direct_frame_result", args={"width": 160, "height": 120, "samples": samples})
     assert r["channels"] == r["channels_bands"], (r["channels"], r["channels_bands"])
     assert any(k.startswith("Second.Position.") for k in r["channels"]), r["channels"]
     assert len(r["channels"]) >= 40 and r["unequal"] == [], r["unequal"]

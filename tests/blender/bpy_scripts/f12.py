@@ -65,6 +65,8 @@ class Spy:
     def update_result(self, result):
         self._engine.update_result(result)
         rect = result.layers[0].passes.find_by_name("Combined", "").rect
+        if len(rect) == 1:  # engine.frame_result's one pixel, which has Blender allocate its passes
+            return
         pixels = np.empty(len(rect) * 4, np.float32)
         rect.foreach_get(pixels)
         self.updates.append(dict(progress=self.progress[-1] if self.progress else None,
@@ -205,13 +207,13 @@ def one_sample_bands(S, mod, sizes):
     S.report(found=found)
 
 
-def direct_frame_result(S, mod, width, height):
-    """One sample of a window of one band, in the background: written straight into Blender's
-    result of the frame (engine.frame_result), and the same scene through a band (DIRECT_IN_BACKGROUND
-    off). Two view layers (the second without the sun's collection, and with other passes) and two
+def direct_frame_result(S, mod, width, height, samples=1):
+    """A window of one band (one sample) or of several samples, in the background: written straight
+    into Blender's result of the frame (engine.frame_result), and the same scene through a band
+    result (DIRECT_IN_BACKGROUND off). Two view layers (the second without the sun's collection, and with other passes) and two
     stereo views, so that a pass written into the wrong layer or view shows. Every channel of the
     EXRs, and the rectangles begin_result was asked for (per view layer)."""
-    scene = scene_with_samples(S, width, height, 1)
+    scene = scene_with_samples(S, width, height, samples)
     sun = bpy.data.objects["Sun"]
     lights = bpy.data.collections.new("Lights")
     scene.collection.children.link(lights)
