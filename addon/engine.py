@@ -1,6 +1,7 @@
 """Final renders: Blender's depsgraph -> export.py's dicts -> the native core -> render passes.
 
 The RenderEngine class (in __init__.py) only forwards its callbacks here."""
+import contextlib
 import os
 import time
 import traceback
@@ -208,11 +209,12 @@ def normalised(buffer, native, samples_done):
     return buffer * (np.float32(1.0) / np.float32(samples_done))
 
 
-def result_passes(result, layer_name=None):
-    """(layer, view names, passes) of a RenderResult: exactly the passes it holds (registered when
-    the render started; a handler may have toggled one since), in the table's order. `layer_name`:
-    the view layer's, in a result of every layer (frame_result); a band holds only its own."""
-    layer = result.layers[0] if layer_name is None else result.layers[layer_name]
+def result_passes(result, layer_name):
+    """(layer, view names, passes) of the view layer `layer_name` in a RenderResult (a band holds
+    only that layer, Blender's result of the frame every one): exactly the passes it holds
+    (registered when the render started; a handler may have toggled one since), in the table's
+    order."""
+    layer = result.layers[layer_name]
     names = {p.name for p in layer.passes}
     return layer, [v.name for v in result.views] or [""], [p for p in passes.PASSES if p.name in names]
 
@@ -259,6 +261,25 @@ def frame_result(engine, layer_name):
     finally:
         engine.end_result(pixel, cancel=True)
     return engine.get_result()
+
+
+@contextlib.contextmanager
+def render_result(engine, layer_name, rect, direct):
+    """The RenderResult a render writes its passes into: Blender's own result of the frame when
+    `direct` (frame_result), else a band of it at rect = (x, y, w, h) (begin_result), which leaving
+    the block ends: merged when the block finished (a cancel too: what was rendered is kept),
+    discarded when it raised, so that a failed frame is never shown or saved as rendered (straight
+    into Blender's result, render()'s error_set alone sees to that)."""
+    if direct:
+        yield frame_result(engine, layer_name)
+        return
+    result = engine.begin_result(*rect, layer=layer_name)
+    keep = False
+    try:
+        yield result
+        keep = True
+    finally:
+        engine.end_result(result, cancel=not keep)
 
 
 def band_rows(width, height, tile_size):
@@ -317,11 +338,8 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
     stats, ratio, cancelled = None, None, False
     for band, top in enumerate(range(0, h, rows)):
         bh = min(rows, h - top)
-        result = frame_result(engine, layer_name) if direct else \
-            engine.begin_result(0, top, w, bh, layer=layer_name)
-        keep = False
-        try:
-            layer, views, present = result_passes(result, layer_name if direct else None)
+        with render_result(engine, layer_name, (0, top, w, bh), direct) as result:
+            layer, views, present = result_passes(result, layer_name)
             if buffers is None:
                 # Depth is always rendered: the core's precision check reads it.
                 wanted = dict([("depth", 1)] + [(p.native, p.channels) for p in present])
@@ -348,10 +366,6 @@ def _render_bands(engine, depsgraph, core, image, objects, shading, window, labe
                     cancelled = True
                     break
                 camera_rays += w * bh
-            keep = True
-        finally:
-            if not direct:
-                engine.end_result(result, cancel=not keep)
         # Esc between bands too: a band can end before the core's first poll.
         if cancelled or (top + bh < h and progress.update(0, 0, (band + 1) / bands, force=True)):
             cancelled = True
@@ -431,15 +445,11 @@ def _render_frame(engine, depsgraph, times):
     # animation's frame_change_pre): exactly the result's passes are rendered and written.
     shows_samples = UPDATE_IN_BACKGROUND or not bpy.app.background
     direct = not shows_samples and direct_in_background(engine)
-    result = frame_result(engine, view_layer.name) if direct else \
-        engine.begin_result(0, 0, w, h, layer=view_layer.name)
-    # A failure discards the result (end_result(cancel=True); straight into Blender's result, the
-    # error alone): a failed frame is never shown or saved as rendered. A cancel (Esc) keeps what
-    # was rendered, as Cycles does: the samples done, and of a first sample cut short the tiles
-    # done (the others transparent black).
-    keep = False
-    try:
-        layer, views, present = result_passes(result, view_layer.name if direct else None)
+    # A failure discards the result (render_result): a failed frame is never shown or saved as
+    # rendered. A cancel (Esc) keeps what was rendered, as Cycles does: the samples done, and of a
+    # first sample cut short the tiles done (the others transparent black).
+    with render_result(engine, view_layer.name, (0, 0, w, h), direct) as result:
+        layer, views, present = result_passes(result, view_layer.name)
         # Zeros: what a cancelled first sample did not reach stays transparent black.
         buffers = {p.native: core.pass_array(h, w, p.channels, zero=True) for p in present}
         # Depth is always rendered: the core's precision check reads it (one float per pixel).
@@ -519,10 +529,6 @@ def _render_frame(engine, depsgraph, times):
                      motion_blur_seconds=blur_seconds, **totals)
         LAST_STATS.clear()
         LAST_STATS.update(stats)
-        keep = True
-    finally:
-        if not direct:
-            engine.end_result(result, cancel=not keep)
     _finish(engine, core, label, stats, cancelled, done, samples, time.perf_counter() - started)
 
 
