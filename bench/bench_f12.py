@@ -13,7 +13,7 @@ with a sun, motion blur off against on; and the engine's own figure for the scen
 export (LAST_STATS['motion_blur_seconds']) per sample.
 
 With --memory: the peak resident memory of one F12 at --res with every pass on, 1 sample (or
---samples, given with --memory; then F12 through a band result as well: engine.DIRECT_IN_BACKGROUND off), against
+--samples; with several, F12 through a band result as well: engine.DIRECT_IN_BACKGROUND off), against
 one copy of the passes (4 bytes per channel per pixel) and against a bare core call into one copy;
 each measured in a fresh process (the peak is a process's high-water mark: ru_maxrss after the
 render minus before it, the scene built and a small render done first).
@@ -26,8 +26,8 @@ is the user's cost with either (the core alone writes no file), so it is measure
 48 frames as F12s that write nothing (frame_set, then bpy.ops.render.render()), whose difference
 to the animation is what saving the frames costs; and those F12s once more through a band result
 (engine.DIRECT_IN_BACKGROUND off), as Blender with a window renders them, where in the background
-a frame of one band goes straight into Blender's result. Interleaved rounds, medians of CPU time; and
-what an F12 frame costs beyond its core calls (its CPU less theirs: steadier than the ratio, which
+a frame of one band goes straight into Blender's result. Interleaved rounds, medians of CPU time;
+and what an F12 frame costs beyond its core calls (its CPU less theirs: steadier than the ratio, which
 moves with the core's own time), split into the calling thread's CPU (time.thread_time) and the
 other threads' (Blender's thread pool), and the core calls' own CPU against the bare core's.
 
@@ -81,6 +81,19 @@ def summary(values):
 def peak_rss_bytes():
     import resource
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024   # kilobytes on Linux
+
+
+def through_bands(engine, run):
+    """`run` as Blender with a window renders it: through band results (engine.DIRECT_IN_BACKGROUND
+    off; in the background a frame of one band, or of several samples, goes straight into Blender's
+    result)."""
+    def banded():
+        engine.DIRECT_IN_BACKGROUND = False
+        try:
+            return run()
+        finally:
+            engine.DIRECT_IN_BACKGROUND = True
+    return banded
 
 
 def memory_child(mode, width, height, samples=1):
@@ -221,20 +234,9 @@ def animation(width, height, repeats, frames=48):
         finally:
             utils.native = native
 
-    engine = sys.modules[module + ".engine"]
-
-    def f12_through_bands():
-        """The same F12s through a band result, as Blender with a window renders (in the background
-        a frame of one band goes straight into Blender's result: engine.DIRECT_IN_BACKGROUND)."""
-        engine.DIRECT_IN_BACKGROUND = False
-        try:
-            f12_each_frame()
-        finally:
-            engine.DIRECT_IN_BACKGROUND = True
-
     rows = {"animation": [], "f12": [], "f12_bands": [], "core": []}
     runs = {"animation": lambda: bpy.ops.render.render(animation=True), "f12": f12_each_frame,
-            "f12_bands": f12_through_bands, "core": bare_core}
+            "f12_bands": through_bands(sys.modules[module + ".engine"], f12_each_frame), "core": bare_core}
     beside, beside_calling = [], []  # ms of CPU a frame of F12 beyond its core calls: all, calling thread
     within = []  # ms of CPU a frame of F12's core calls
     for _ in range(repeats):  # interleaved, so that load changes hit all alike
@@ -283,16 +285,8 @@ def main():
         return animation(width, height, args.repeats)
     module = ensure_extension(prog="bench_f12")
     export = sys.modules[module + ".export"]
-    engine = sys.modules[module + ".engine"]
+    f12_through_bands = through_bands(sys.modules[module + ".engine"], lambda: bpy.ops.render.render())
     core = sys.modules[module + ".utils"].native()
-
-    def f12_through_bands():
-        """F12 through band results, as Blender with a window renders (engine.DIRECT_IN_BACKGROUND)."""
-        engine.DIRECT_IN_BACKGROUND = False
-        try:
-            bpy.ops.render.render()
-        finally:
-            engine.DIRECT_IN_BACKGROUND = True
 
     for samples in (1, 8):
         scene = new_scene(width, height, world_color=(0.05, 0.05, 0.05))

@@ -210,8 +210,9 @@ def one_sample_bands(S, mod, sizes):
 def direct_frame_result(S, mod, width, height, samples=1):
     """A window of one band (one sample) or of several samples, in the background: written straight
     into Blender's result of the frame (engine.frame_result), and the same scene through a band
-    result (DIRECT_IN_BACKGROUND off). Two view layers (the second without the sun's collection, and with other passes) and two
-    stereo views, so that a pass written into the wrong layer or view shows. Every channel of the
+    result (DIRECT_IN_BACKGROUND off). Two view layers (the second without the sun's collection,
+    and with other passes) and two stereo views, so that a pass written into the wrong layer or
+    view shows. Every channel of the
     EXRs, and the rectangles begin_result was asked for (per view layer)."""
     scene = scene_with_samples(S, width, height, samples)
     sun = bpy.data.objects["Sun"]
