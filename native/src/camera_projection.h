@@ -19,8 +19,8 @@ typedef struct {
     double start[4], start_per_x[4], end[4], end_per_x[4];
 } projection_row;
 
-static inline void projection_row_of(const ub_clip_plane_map *clip_start, const ub_clip_plane_map *clip_end,
-                                     double py, projection_row *row)
+static inline __attribute__((always_inline)) void projection_row_of(const ub_clip_plane_map *clip_start,
+        const ub_clip_plane_map *clip_end, double py, projection_row *row)
 {
     for (int i = 0; i < 4; i++) {
         row->start[i] = clip_start->origin[i] + py * clip_start->per_y[i];
@@ -90,9 +90,12 @@ static inline __attribute__((always_inline)) void projection_ray_in_row(const pr
     }
 }
 
-/* View-space ray (ov, dv) through image point (px, py) and its t range between the clip planes. */
-static inline void projection_ray_view_kind(const ub_camera *cam, int orthographic, double px, double py,
-                                            double ov[3], double dv[3], double *t_min, double *t_max)
+/* View-space ray (ov, dv) through image point (px, py) and its t range between the clip planes.
+ * Always inlined: the cones call it in lane loops (cone.h, block_cones_kind), which stay scalar
+ * around a call; clang (zig cc, the release builds) left it out of line where GCC inlines it
+ * (issue 21: the release build 1.037x with AVX-512, the same bits). */
+static inline __attribute__((always_inline)) void projection_ray_view_kind(const ub_camera *cam, int orthographic,
+        double px, double py, double ov[3], double dv[3], double *t_min, double *t_max)
 {
     projection_row row;
     projection_row_of(&cam->clip_start, &cam->clip_end, py, &row);
