@@ -745,6 +745,12 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
         w[k] = doubled_start(z[k], k4, &r2[k]);
         dr2[k] = v_set1(1.0f);
         n[k] = v_set1(0.0f);
+#ifdef UB_ESCAPE_MASK_FROM_R2
+        /* A lane outside `lanes` starts as escaped (r2 past any bailout): then a lane iterates
+         * exactly while its r2 has not passed the bailout, and each trip's mask is r2's compare
+         * (simd_avx2.h; the lanes outside `lanes` get another estimate, which no caller reads). */
+        r2[k] = v_select(lanes[k], r2[k], v_set1(INFINITY));
+#endif
         active[k] = lanes[k];
     }
     for (int it = 0; it < p->max_iterations && m_either(active[0], active[1]); it++) {
@@ -753,7 +759,11 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
             dr2[k] = v_select(active[k], v_mul(dr2[k], r2[k]), dr2[k]);
             r2[k] = v_select(active[k], nr2, r2[k]);
             n[k] = v_count(n[k], active[k]);
+#ifdef UB_ESCAPE_MASK_FROM_R2
+            active[k] = m_not_gt(r2[k], k4->bail2x4);
+#else
             active[k] = m_andnot_gt(nr2, k4->bail2x4, active[k]);
+#endif
         }
     }
     for (int k = 0; k < 2; k++) {

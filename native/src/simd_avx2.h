@@ -36,6 +36,12 @@ static inline vm m_andnot(vm a, vm b) { return _mm256_andnot_ps(a, b); } /* !a &
 static inline vm m_false(void) { return _mm256_setzero_ps(); }
 static inline int m_bits(vm a) { return _mm256_movemask_ps(a); }
 static inline vm m_andnot_gt(vf a, vf b, vm lanes) { return _mm256_andnot_ps(v_gt(a, b), lanes); }
+/* The lanes where a > b does not hold (NaN included). */
+static inline vm m_not_gt(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_NGT_UQ); }
+/* With 16 vector registers the pair estimate's loop (estimators.h, de_julia_pair_body) reads each
+ * orbit's lane mask off its r2 instead of carrying it: one vector fewer a packet, so fewer of its
+ * accumulators go through memory. */
+#define UB_ESCAPE_MASK_FROM_R2 1
 static inline int m_either(vm a, vm b) { return m_bits(m_or(a, b)) != 0; }
 static inline vm m_from_bits(int bits)
 {
