@@ -884,7 +884,8 @@ static inline void world_to_object_point(const ub_object *o, const double p[3], 
 
 /* A packet of world points -> the object's quaternions, one per lane. Always inlined, as GCC does
  * and clang (the release builds) did not: its packet returns in registers, not through memory. */
-static inline __attribute__((always_inline)) void quaternion_lanes(const ub_object *o, const double p[3][UB_LANES], vf q[4])
+static inline __attribute__((always_inline)) void quaternion_lanes(const ub_object *o, const double p[3][UB_LANES],
+                                                                   vf q[4])
 {
     float qs[4][UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
