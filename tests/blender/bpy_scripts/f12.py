@@ -212,8 +212,8 @@ def direct_frame_result(S, mod, width, height, samples=1):
     into Blender's result of the frame (engine.frame_result), and the same scene through a band
     result (DIRECT_IN_BACKGROUND off). Two view layers (the second without the sun's collection,
     and with other passes) and two stereo views, so that a pass written into the wrong layer or
-    view shows. Every channel of the
-    EXRs, and the rectangles begin_result was asked for (per view layer)."""
+    view shows. Every channel of the EXRs, and the rectangles begin_result was asked for (per view
+    layer)."""
     scene = scene_with_samples(S, width, height, samples)
     sun = bpy.data.objects["Sun"]
     lights = bpy.data.collections.new("Lights")
