@@ -553,14 +553,26 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
             float gb[3][UB_LANES];
             for (int a = 0; a < 3; a++)
                 v_store(gb[a], g[a]);
-            /* Normals transform with the inverse transpose of object -> world (every lane, then
-             * a select: vector code). */
+            /* Normals transform with the inverse transpose of object -> world: every lane, then
+             * a select, in double vectors where the kernel has them (issue 21: GCC left the lane
+             * loop scalar, 1.9 % of the peer render), each sum in the lane loop's order. */
             const double(*w)[4] = o->world_to_object;
+#ifdef VD_LANES
+            for (int h = 0; h < UB_LANES; h += VD_LANES) {
+                const vd g[3] = {vd_load_floats(gb[0] + h), vd_load_floats(gb[1] + h), vd_load_floats(gb[2] + h)};
+                const vdm keep = vdm_from_bits((simd_lanes >> h) & ((1 << VD_LANES) - 1));
+                for (int i = 0; i < 3; i++) {
+                    const double column[3] = {w[0][i], w[1][i], w[2][i]};
+                    vd_store(nw[i] + h, vd_select(keep, vd_row_dot(column, g), vd_load(nw[i] + h)));
+                }
+            }
+#else
             for (int l = 0; l < UB_LANES; l++)
                 for (int i = 0; i < 3; i++) {
                     const double n = w[0][i] * gb[0][l] + w[1][i] * gb[1][l] + w[2][i] * gb[2][l];
                     nw[i][l] = (simd_lanes >> l) & 1 ? n : nw[i][l];
                 }
+#endif
             have_normal |= simd_lanes;
         }
         const ub_material *mat = &o->material;
@@ -1207,19 +1219,20 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
             light[i][l] = f * fog_color + (1.0f - f) * local;
         }
     }
-    for (int i = 0; i < 3; i++)
-        for (int l = 0; l < UB_LANES; l++)
-            ps->L[i][l] = (hit_lanes >> l) & 1 ? ps->L[i][l] + ps->W[l] * ps->tint[i][l] * light[i][l] : ps->L[i][l];
-    if (bounce > 0)
-        for (int i = 0; i < 3; i++)
-            for (int l = 0; l < UB_LANES; l++)
-                ps->R[i][l] = (hit_lanes >> l) & 1 ? ps->R[i][l] + ps->Wr[l] * ps->tint[i][l] * light[i][l] : ps->R[i][l];
-    else
-        for (int i = 0; i < 3; i++)
-            for (int l = 0; l < UB_LANES; l++) {
-                ps->pass_diffuse[i][l] = (hit_lanes >> l) & 1 ? dif[i][l] : ps->pass_diffuse[i][l];
-                ps->pass_ambient[i][l] = (hit_lanes >> l) & 1 ? amb[i][l] : ps->pass_ambient[i][l];
-            }
+    /* The hit lanes' sums as vectors (GCC left these lane loops scalar: issue 21), each lane's
+     * L + (W tint) light in the lane loop's order. */
+    const vm hit_mask = m_from_bits(hit_lanes);
+    for (int i = 0; i < 3; i++) {
+        const vf L = v_load(ps->L[i]), tint = v_load(ps->tint[i]), lit = v_load(light[i]);
+        v_store(ps->L[i], v_select(hit_mask, v_add(L, v_mul(v_mul(v_load(ps->W), tint), lit)), L));
+        if (bounce > 0) {
+            const vf R = v_load(ps->R[i]);
+            v_store(ps->R[i], v_select(hit_mask, v_add(R, v_mul(v_mul(v_load(ps->Wr), tint), lit)), R));
+        } else {
+            v_store(ps->pass_diffuse[i], v_select(hit_mask, v_load(dif[i]), v_load(ps->pass_diffuse[i])));
+            v_store(ps->pass_ambient[i], v_select(hit_mask, v_load(amb[i]), v_load(ps->pass_ambient[i])));
+        }
+    }
     for (int l = 0; l < UB_LANES; l++) {
         const int hit = (hit_lanes >> l) & 1, mat = (sf->bsdf_lanes >> l) & 1;
         const float a = sf->alpha[l], kept = (1.0f - fog[l]) * (plan ? 1.0f : r[l]);
@@ -1294,9 +1307,11 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
     float *const *pass = film->pass;
     const int S = sh->samples;
     const int lanes = grid_lanes(u->rows, u->cols, stride);
-    int hit[UB_LANES];
+    int hit[UB_LANES], hit_bits = 0;
     for (int l = 0; l < UB_LANES; l++)
         hit[l] = ps->primary_obj[l] != UB_HIT_NONE;
+    for (int l = 0; l < UB_LANES; l++)
+        hit_bits |= hit[l] << l;
     /* Lanes outside a panoramic camera's lens were not traced: never out of steps. Counted from a
      * bit word, not by reading back the pass's lanes just stored one at a time: a vector load of
      * those stores waits for them to reach the cache (issue 21: that wait was a quarter of this
@@ -1328,16 +1343,15 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
     }
     if (pass[UB_PASS_COMBINED] || pass[UB_PASS_ALPHA]) {
         float rgba[4][UB_LANES], alpha[1][UB_LANES];
-        const float bg_alpha = film->background[3];
-        for (int l = 0; l < UB_LANES; l++) {
-            /* Outside a panoramic camera's lens Cycles traces nothing and shows opaque black (with
-             * a transparent film too): no background there. A material's alpha: the background's
-             * share shows. */
-            int unseen = (ps->unseen >> l) & 1, covered = hit[l] && ps->coverage[l] < 1.0f;
-            float a = covered ? ps->coverage[l] : (hit[l] ? 1.0f : 0.0f);
-            alpha[0][l] = a;
-            rgba[3][l] = covered ? a + (1.0f - a) * bg_alpha : (hit[l] || unseen ? 1.0f : bg_alpha);
-        }
+        const vf bg_alpha = v_set1(film->background[3]), one = v_set1(1.0f), coverage = v_load(ps->coverage);
+        /* Outside a panoramic camera's lens Cycles traces nothing and shows opaque black (with a
+         * transparent film too): no background there. A material's alpha: the background's share
+         * shows. As vectors (GCC left the lane loop scalar: issue 21). */
+        const vm hit_mask = m_from_bits(hit_bits), covered = m_and(hit_mask, v_lt(coverage, one));
+        const vf a = v_select(covered, coverage, v_select(hit_mask, one, v_set1(0.0f)));
+        v_store(alpha[0], a);
+        v_store(rgba[3], v_select(covered, v_add(a, v_mul(v_sub(one, a), bg_alpha)),
+                                  v_select(m_or(hit_mask, m_from_bits(ps->unseen)), one, bg_alpha)));
         if (pass[UB_PASS_COMBINED]) {
             for (int i = 0; i < 3; i++)
                 for (int l = 0; l < UB_LANES; l++)
