@@ -1353,9 +1353,8 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
         v_store(rgba[3], v_select(covered, v_add(a, v_mul(v_sub(one, a), bg_alpha)),
                                   v_select(m_or(hit_mask, m_from_bits(ps->unseen)), one, bg_alpha)));
         if (pass[UB_PASS_COMBINED]) {
-            for (int i = 0; i < 3; i++)
-                for (int l = 0; l < UB_LANES; l++)
-                    rgba[i][l] = ps->L[i][l] + glow[i][l];
+            for (int i = 0; i < 3; i++) /* (as a lane loop GCC made it scalar) */
+                v_store(rgba[i], v_add(v_load(ps->L[i]), v_load(glow[i])));
             put_lanes(pass[UB_PASS_COMBINED], u, stride, 4, rgba, sample, S, PASS_AVERAGED);
         }
         put_lanes(pass[UB_PASS_ALPHA], u, stride, 1, alpha, sample, S, PASS_AVERAGED);

@@ -55,7 +55,9 @@ static inline void v_log_reduce(vf x, const float invc[16], const float logc[16]
 {
     const __m512i xi = _mm512_castps_si512(x);
     const __m512i t = _mm512_sub_epi32(xi, _mm512_set1_epi32(0x3f330000));
-    const __m512i i = _mm512_and_si512(_mm512_srli_epi32(t, 19), _mm512_set1_epi32(15));
+    /* The interval's index: vpermps reads only an index's low 4 bits, so no mask (one operation
+     * fewer in each estimate's tail). */
+    const __m512i i = _mm512_srli_epi32(t, 19);
     *z = _mm512_castsi512_ps(_mm512_sub_epi32(xi, _mm512_and_si512(t, _mm512_set1_epi32((int)0xff800000u))));
     *k = _mm512_cvtepi32_ps(_mm512_srai_epi32(t, 23));
     *ic = _mm512_permutexvar_ps(i, _mm512_loadu_ps(invc));
