@@ -49,6 +49,25 @@ static inline vf v_select(vm m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, 
 /* a + (m ? 1 : 0) */
 static inline vf v_count(vf a, vm m) { return _mm512_mask_add_ps(a, m, a, _mm512_set1_ps(1.0f)); }
 
+/* Four channels of the 16 lanes interleaved (r g b a of lane 0, then lane 1, ...): lanes 4k..4k+3,
+ * 16 floats, at dst[k]. Unpacks within 128-bit lanes, then a 4 x 4 transpose of those. */
+#define UB_HAVE_STORE_RGBA 1
+static inline void v_store_rgba(float *const dst[4], vf r, vf g, vf b, vf a)
+{
+    const __m512 t0 = _mm512_unpacklo_ps(r, g), t1 = _mm512_unpackhi_ps(r, g);
+    const __m512 t2 = _mm512_unpacklo_ps(b, a), t3 = _mm512_unpackhi_ps(b, a);
+    /* pixel 0 4 8 12, 1 5 9 13, 2 6 10 14, 3 7 11 15 */
+    const __m512 u0 = _mm512_shuffle_ps(t0, t2, 0x44), u1 = _mm512_shuffle_ps(t0, t2, 0xee);
+    const __m512 u2 = _mm512_shuffle_ps(t1, t3, 0x44), u3 = _mm512_shuffle_ps(t1, t3, 0xee);
+    /* pixel 0 4 1 5, 2 6 3 7, 8 12 9 13, 10 14 11 15 */
+    const __m512 v0 = _mm512_shuffle_f32x4(u0, u1, 0x44), v1 = _mm512_shuffle_f32x4(u2, u3, 0x44);
+    const __m512 v2 = _mm512_shuffle_f32x4(u0, u1, 0xee), v3 = _mm512_shuffle_f32x4(u2, u3, 0xee);
+    _mm512_storeu_ps(dst[0], _mm512_shuffle_f32x4(v0, v1, 0x88));
+    _mm512_storeu_ps(dst[1], _mm512_shuffle_f32x4(v0, v1, 0xdd));
+    _mm512_storeu_ps(dst[2], _mm512_shuffle_f32x4(v2, v3, 0x88));
+    _mm512_storeu_ps(dst[3], _mm512_shuffle_f32x4(v2, v3, 0xdd));
+}
+
 /* v_log's reduction (estimators.h): x = 2^k z with z in [0.699, 1.398), and the table entries
  * invc[i], logc[i] of z's interval i (its top mantissa bits, glibc logf's layout). */
 static inline void v_log_reduce(vf x, const float invc[16], const float logc[16], vf *z, vf *k, vf *ic, vf *lc)
