@@ -1259,18 +1259,24 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
         ps->W[l] = hit ? (mat ? w_material : w) : ps->W[l];
     }
     if (bounce == 0) {
-        for (int l = 0; l < UB_LANES; l++) {
-            const int hit = (hit_lanes >> l) & 1;
-            for (int i = 0; i < 3; i++) {
-                ps->pos0[i][l] = hit ? sf->p[i][l] : ps->pos0[i][l];
-                ps->nrm0[i][l] = hit ? sf->n[i][l] : ps->nrm0[i][l];
-                ps->albedo0[i][l] = hit ? sf->albedo[i][l] : ps->albedo0[i][l];
-            }
-            ps->pass_ao[l] = hit ? ao[l] : ps->pass_ao[l];
-            ps->pass_shadow[l] = hit ? shadow[l] : ps->pass_shadow[l];
-            ps->pass_trap[l] = hit ? sf->trap[l] : ps->pass_trap[l];
-            ps->coverage[l] = hit ? sf->alpha[l] : ps->coverage[l];
+        /* The first hit's data for the passes, as vector selects (issue 21: clang made the lane
+         * loop scalar, a branch-free copy of one lane at a time). */
+        for (int i = 0; i < 3; i++) {
+            v_store(ps->nrm0[i], v_select(hit_mask, v_load(sf->n[i]), v_load(ps->nrm0[i])));
+            v_store(ps->albedo0[i], v_select(hit_mask, v_load(sf->albedo[i]), v_load(ps->albedo0[i])));
+#ifdef VD_LANES
+            for (int h = 0; h < UB_LANES; h += VD_LANES)
+                vd_store(ps->pos0[i] + h, vd_select(vdm_from_bits((hit_lanes >> h) & ((1 << VD_LANES) - 1)),
+                                                    vd_load(sf->p[i] + h), vd_load(ps->pos0[i] + h)));
+#else
+            for (int l = 0; l < UB_LANES; l++)
+                ps->pos0[i][l] = (hit_lanes >> l) & 1 ? sf->p[i][l] : ps->pos0[i][l];
+#endif
         }
+        v_store(ps->pass_ao, v_select(hit_mask, v_load(ao), v_load(ps->pass_ao)));
+        v_store(ps->pass_shadow, v_select(hit_mask, v_load(shadow), v_load(ps->pass_shadow)));
+        v_store(ps->pass_trap, v_select(hit_mask, v_load(sf->trap), v_load(ps->pass_trap)));
+        v_store(ps->coverage, v_select(hit_mask, v_load(sf->alpha), v_load(ps->coverage)));
     }
     /* The lanes whose paths go on: first as a bit word, so that a packet none of whose paths goes
      * on (no reflection) skips the loop, which the compiler otherwise runs as vectors over every
