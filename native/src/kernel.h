@@ -559,11 +559,11 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
             const double(*w)[4] = o->world_to_object;
 #ifdef VD_LANES
             for (int h = 0; h < UB_LANES; h += VD_LANES) {
-                const vd g[3] = {vd_load_floats(gb[0] + h), vd_load_floats(gb[1] + h), vd_load_floats(gb[2] + h)};
+                const vd gd[3] = {vd_load_floats(gb[0] + h), vd_load_floats(gb[1] + h), vd_load_floats(gb[2] + h)};
                 const vdm keep = vdm_from_bits((simd_lanes >> h) & ((1 << VD_LANES) - 1));
                 for (int i = 0; i < 3; i++) {
                     const double column[3] = {w[0][i], w[1][i], w[2][i]};
-                    vd_store(nw[i] + h, vd_select(keep, vd_row_dot(column, g), vd_load(nw[i] + h)));
+                    vd_store(nw[i] + h, vd_select(keep, vd_row_dot(column, gd), vd_load(nw[i] + h)));
                 }
             }
 #else
