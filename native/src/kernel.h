@@ -1281,10 +1281,7 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
     /* The lanes whose paths go on: first as a bit word, so that a packet none of whose paths goes
      * on (no reflection) skips the loop, which the compiler otherwise runs as vectors over every
      * lane (issue 21: that was a quarter of the peer render with -fno-trapping-math). */
-    int going = 0, next = 0;
-    for (int l = 0; l < UB_LANES; l++)
-        going |= (ps->W[l] > 0.0f) << l;
-    going &= hit_lanes;
+    int going = m_bits(v_gt(v_load(ps->W), v_set1(0.0f))) & hit_lanes, next = 0;
     for (int l = 0; going >> l; l++) {
         if (!((going >> l) & 1) || (plan && !gi_continue(plan, l, ps)))
             continue;

@@ -638,13 +638,17 @@ static void trace_begin(const ub_scene *sc, const ub_packet_rays *pr, int lanes,
                         ub_trace_result *out, ub_trace_state *ts)
 {
     const int sea = (flags & UB_TRACE_SEA) != 0;
+    /* Apart from the sea's loop: with its branch in the same loop, clang kept this one scalar
+     * (issue 21: 0.9 % of the release build's peer render). */
     for (int l = 0; l < UB_LANES; l++) {
         ts->gave_up_t[l] = INFINITY;
         out->object[l] = UB_HIT_NONE;
         out->iters[l] = out->dist[l] = 0.0f;
         out->penumbra[l] = 1.0f;
         ts->best_t[l] = (float)pr->t_max[l];
-        if (sea && ((lanes >> l) & 1)) {
+    }
+    for (int l = 0; l < UB_LANES && sea; l++) {
+        if ((lanes >> l) & 1) {
             double o[3] = {pr->origin[0][l], pr->origin[1][l], pr->origin[2][l]};
             double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
             double ts_ = sea_t(sc->shading, o, d);
