@@ -75,22 +75,6 @@ static inline void v_log_reduce(vf x, const float invc[16], const float logc[16]
     *lc = v_table16(logc, i, upper);
 }
 
-/* Four channels of the 8 lanes interleaved (r g b a of lane 0, then lane 1, ...): lanes 4k..4k+3,
- * 16 floats, at dst[k]. Unpacks within 128-bit halves, then the halves exchanged. */
-#define UB_HAVE_STORE_RGBA 1
-static inline void v_store_rgba(float *const dst[2], vf r, vf g, vf b, vf a)
-{
-    const __m256 t0 = _mm256_unpacklo_ps(r, g), t1 = _mm256_unpackhi_ps(r, g);
-    const __m256 t2 = _mm256_unpacklo_ps(b, a), t3 = _mm256_unpackhi_ps(b, a);
-    /* pixel 0 4, 1 5, 2 6, 3 7 */
-    const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xee);
-    const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xee);
-    _mm256_storeu_ps(dst[0], _mm256_permute2f128_ps(u0, u1, 0x20));
-    _mm256_storeu_ps(dst[0] + 8, _mm256_permute2f128_ps(u2, u3, 0x20));
-    _mm256_storeu_ps(dst[1], _mm256_permute2f128_ps(u0, u1, 0x31));
-    _mm256_storeu_ps(dst[1] + 8, _mm256_permute2f128_ps(u2, u3, 0x31));
-}
-
 /* Doubles for the deep zoom's estimate (zoom_lanes.h): 4 per vector, two per packet. Only IEEE
  * + - * / sqrt, min, max and compares, no fused multiply-add: the bits of zoom.c's scalar code
  * (compiled without FMA, and -ffp-contract=off keeps the compiler from fusing these). */
