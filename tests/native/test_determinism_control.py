@@ -1,5 +1,6 @@
 """Same parameters, same bytes: whatever the thread count, tile size or SIMD path. Progress,
 cancellation and counters."""
+import sys
 import threading
 import time
 
@@ -153,22 +154,36 @@ def test_exception_in_progress_propagates_and_stops():
 
 
 def test_gil_released_during_render():
-    """Another Python thread keeps running while a render is in progress."""
+    """Another Python thread keeps running while a render is in progress: it ticks strictly inside
+    the render's time, away from its ends by more than the interpreter's switch interval (with the
+    GIL held for the render, no tick could land there). Counted by time, not by the number of
+    ticks over a whole render: a faster core left too few (5 under wine, whose sleeps last a
+    15.6 ms timer tick), so renders repeat until three ticks landed inside, at most 50."""
     cam = make_camera(800, 600)
     ticks = []
     stop = threading.Event()
 
     def ticker():
         while not stop.is_set():
-            ticks.append(1)
+            ticks.append(time.perf_counter())
             time.sleep(0.001)
 
+    margin = 2.0 * sys.getswitchinterval()
+    inside = 0
     th = threading.Thread(target=ticker)
     th.start()
-    render(cam, [dict(OBJ, max_iterations=100)], ["alpha"])
-    stop.set()
-    th.join()
-    assert len(ticks) > 5
+    try:
+        for _ in range(50):
+            t0 = time.perf_counter()
+            render(cam, [dict(OBJ, max_iterations=100)], ["alpha"])
+            t1 = time.perf_counter()
+            inside += sum(1 for t in list(ticks) if t0 + margin < t < t1 - margin)
+            if inside >= 3:
+                break
+    finally:
+        stop.set()
+        th.join()
+    assert inside >= 3, inside
 
 
 def test_union_of_two_objects_takes_nearest():
