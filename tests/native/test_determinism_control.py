@@ -158,8 +158,9 @@ def test_gil_released_during_render():
     the render's time, away from its ends by more than the interpreter's switch interval (with the
     GIL held for the render, no tick could land there). Counted by time, not by the number of
     ticks over a whole render: a faster core left too few (5 under wine, whose sleeps last a
-    15.6 ms timer tick), so renders repeat until three ticks landed inside, at most 50."""
-    cam = make_camera(800, 600)
+    15.6 ms timer tick). One render thread, so that the ticker has a core of its own; renders
+    repeat until three ticks landed inside, at most 50."""
+    cam = make_camera(1600, 1200)  # tens of ms, far longer than the margins below
     ticks = []
     stop = threading.Event()
 
@@ -175,7 +176,7 @@ def test_gil_released_during_render():
     try:
         for _ in range(50):
             t0 = time.perf_counter()
-            render(cam, [dict(OBJ, max_iterations=100)], ["alpha"])
+            render(cam, [dict(OBJ, max_iterations=100)], ["alpha"], threads=1)  # a core left for the ticker
             t1 = time.perf_counter()
             inside += sum(1 for t in list(ticks) if t0 + margin < t < t1 - margin)
             if inside >= 3:
