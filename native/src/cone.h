@@ -246,8 +246,8 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
         if ((near >> l) & 1)
             iterations[l] += (uint64_t)iters[l];
     const vd zero = vd_set1(0.0), sigma_min = vd_set1(o->sigma_min);
+    const int bits = (1 << VD_LANES) - 1;
     for (int h = 0; h < UB_LANES; h += VD_LANES) {
-        const int bits = (1 << VD_LANES) - 1;
         if (!((open >> h) & bits))
             continue;
         vd bound = vd_mul(vd_load(ball + h), sigma_min);
@@ -257,16 +257,16 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
             const vdm bounds = vdm_and(vdm_from_bits((near >> h) & bits),
                                        vdm_and(vd_gt(d, zero), vd_lt(d, vd_set1(INFINITY))));
             const vd scaled = vd_mul(vd_mul(d, sigma_min), vd_set1(o->step_factor));
-            vd capped = scaled; /* ub_fmin(scaled, max_step): a NaN cap caps nothing */
-            if (!isnan(o->max_step))
-                capped = vd_select(vd_lt(scaled, vd_set1(o->max_step)), scaled, vd_set1(o->max_step));
-            bound = vd_select(bounds, vd_select(vd_gt(bound, capped), bound, capped), bound);
+            /* ub_fmin(scaled, max_step) (a NaN cap caps nothing), then ub_fmax(bound, that): vd_min
+             * and vd_max are the same selects where the second operand is not NaN. */
+            const vd capped = isnan(o->max_step) ? scaled : vd_min(scaled, vd_set1(o->max_step));
+            bound = vd_select(bounds, vd_max(bound, capped), bound);
         }
-        const vd ahead = vd_add(vd_load(t + h), vd_select(vd_gt(bound, zero), bound, zero));
+        const vd ahead = vd_add(vd_load(t + h), vd_max(bound, zero));
         bound = vd_sub(bound, vd_add(vd_load_floats(e0 + h), vd_mul(vd_load_floats(e1 + h), ahead)));
         /* ub_fmin(clear, bound): a NaN bound leaves clear */
         const vd old = vd_load(clear + h);
-        const vd nearer = vd_select(vd_ge(bound, bound), vd_select(vd_lt(old, bound), old, bound), old);
+        const vd nearer = vd_select(vd_ge(bound, bound), vd_min(old, bound), old);
         vd_store(clear + h, vd_select(vdm_from_bits((open >> h) & bits), nearer, old));
     }
 #else

@@ -648,14 +648,14 @@ static void trace_begin(const ub_scene *sc, const ub_packet_rays *pr, int lanes,
         ts->best_t[l] = (float)pr->t_max[l];
     }
     for (int l = 0; l < UB_LANES && sea; l++) {
-        if ((lanes >> l) & 1) {
-            double o[3] = {pr->origin[0][l], pr->origin[1][l], pr->origin[2][l]};
-            double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
-            double ts_ = sea_t(sc->shading, o, d);
-            if (ts_ >= pr->t_min[l] && ts_ <= pr->t_max[l]) {
-                ts->best_t[l] = (float)ts_;
-                out->object[l] = UB_HIT_SEA;
-            }
+        if (!((lanes >> l) & 1))
+            continue;
+        double o[3] = {pr->origin[0][l], pr->origin[1][l], pr->origin[2][l]};
+        double d[3] = {pr->dir[0][l], pr->dir[1][l], pr->dir[2][l]};
+        double ts_ = sea_t(sc->shading, o, d);
+        if (ts_ >= pr->t_min[l] && ts_ <= pr->t_max[l]) {
+            ts->best_t[l] = (float)ts_;
+            out->object[l] = UB_HIT_SEA;
         }
     }
     ts->steps = v_set1(0.0f);
