@@ -13,14 +13,13 @@ pairs of side-by-side packets as the kernels march them (4 x 4 with 16 lanes, 4 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import bench_core  # noqa: E402,F401  (puts the built module on the path)
+import bench_core  # noqa: E402  (the peer scene; puts the built module on the path)
 import unbound_core as uc  # noqa: E402
 
 SHAPES = ((4, 4), (8, 2), (16, 1), (4, 2), (8, 1), (2, 2), (4, 1), (2, 1))
@@ -29,12 +28,8 @@ PAIRED = ((4, 4), (4, 2))  # the kernels' blocks (kernel.h, UB_BLOCK_W x UB_BLOC
 
 def steps_pass(width, height):
     """The peer scene's march steps per pixel (bench_core.py's camera and object)."""
-    cam = dict(matrix=uc.look_at((-2.0, -2.0, 1.0), (0, 0, 0), (0, 0, 1)),
-               projection=uc.perspective(2 * math.atan(0.5), width / height, 0.1, 100.0),
-               width=width, height=height)
-    obj = dict(mu=(-0.2, 0.8, 0.0, 0.0), max_iterations=16, bailout=4.0)
     passes = {n: uc.pass_array(height, width, uc.PASS_CHANNELS[n]) for n in ("combined", "steps")}
-    stats = uc.render(cam, [obj], passes)
+    stats = uc.render(bench_core.camera(width, height), [bench_core.OBJECT], passes)
     steps = passes["steps"][..., 0].astype(np.float64)
     assert steps.sum() == stats["steps"], "the steps pass holds the camera rays' steps"
     return steps

@@ -254,7 +254,7 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
         if ((near >> h) & bits) {
             const vd d = vd_load_floats(dist + h);
             /* As the march steps (march.h); a non-finite estimate bounds nothing. */
-            const vdm bounds = vdm_and(vdm_from_bits((near >> h) & bits),
+            const vdm bounds = vdm_and(vdm_lanes_at(near, h),
                                        vdm_and(vd_gt(d, zero), vd_lt(d, vd_set1(INFINITY))));
             const vd scaled = vd_mul(vd_mul(d, sigma_min), vd_set1(o->step_factor));
             /* ub_fmin(scaled, max_step) (a NaN cap caps nothing), then ub_fmax(bound, that): vd_min
@@ -267,7 +267,7 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
         /* ub_fmin(clear, bound): a NaN bound leaves clear */
         const vd old = vd_load(clear + h);
         const vd nearer = vd_select(vd_ge(bound, bound), vd_min(old, bound), old);
-        vd_store(clear + h, vd_select(vdm_from_bits((open >> h) & bits), nearer, old));
+        vd_store(clear + h, vd_select(vdm_lanes_at(open, h), nearer, old));
     }
 #else
     for (int l = 0; l < UB_LANES; l++) {

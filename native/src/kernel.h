@@ -560,7 +560,7 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
 #ifdef VD_LANES
             for (int h = 0; h < UB_LANES; h += VD_LANES) {
                 const vd gd[3] = {vd_load_floats(gb[0] + h), vd_load_floats(gb[1] + h), vd_load_floats(gb[2] + h)};
-                const vdm keep = vdm_from_bits((simd_lanes >> h) & ((1 << VD_LANES) - 1));
+                const vdm keep = vdm_lanes_at(simd_lanes, h);
                 for (int i = 0; i < 3; i++) {
                     const double column[3] = {w[0][i], w[1][i], w[2][i]};
                     vd_store(nw[i] + h, vd_select(keep, vd_row_dot(column, gd), vd_load(nw[i] + h)));
@@ -1266,8 +1266,8 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
             v_store(ps->albedo0[i], v_select(hit_mask, v_load(sf->albedo[i]), v_load(ps->albedo0[i])));
 #ifdef VD_LANES
             for (int h = 0; h < UB_LANES; h += VD_LANES)
-                vd_store(ps->pos0[i] + h, vd_select(vdm_from_bits((hit_lanes >> h) & ((1 << VD_LANES) - 1)),
-                                                    vd_load(sf->p[i] + h), vd_load(ps->pos0[i] + h)));
+                vd_store(ps->pos0[i] + h, vd_select(vdm_lanes_at(hit_lanes, h), vd_load(sf->p[i] + h),
+                                                    vd_load(ps->pos0[i] + h)));
 #else
             for (int l = 0; l < UB_LANES; l++)
                 ps->pos0[i][l] = (hit_lanes >> l) & 1 ? sf->p[i][l] : ps->pos0[i][l];

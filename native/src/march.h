@@ -20,6 +20,12 @@ typedef struct {
 } ub_object_rays;
 
 #ifdef VD_LANES
+/* The lanes h .. h + VD_LANES - 1 of a packet's bit word, as the mask of a double vector. */
+static inline vdm vdm_lanes_at(int lanes, int h)
+{
+    return vdm_from_bits((lanes >> h) & ((1 << VD_LANES) - 1));
+}
+
 /* The sums of the lane loops' expressions, in their order, in double vectors (object_rays and the
  * cones' object_clearance): row . p as (row0 p0 + row1 p1) + row2 p2, and offset + row . p as
  * ((offset + row0 p0) + row1 p1) + row2 p2. */
@@ -72,7 +78,7 @@ static int object_rays(const ub_object *o, const ub_packet_rays *restrict r, con
                              vd_set1(radius2));
         const vd disc = vd_sub(vd_mul(qb, qb), vd_mul(qa, qc));
         const vd t_min = vd_load(r->t_min + h), t_lim = vd_load(limit + h);
-        const vdm crosses = vdm_and(vdm_from_bits((lanes_in >> h) & ((1 << VD_LANES) - 1)), vd_ge(disc, zero));
+        const vdm crosses = vdm_and(vdm_lanes_at(lanes_in, h), vd_ge(disc, zero));
         vd t0 = t_min, t1 = t_min; /* what a lane that does not touch the ball gets */
         /* Only where some lane's line crosses the ball are its roots wanted: the square root and
          * the two divides are most of the clip's time, and most camera rays of a frame miss. */
