@@ -472,10 +472,23 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
     double nw[3][UB_LANES];
     int have_normal = 0, sea_lanes = 0;
     sf->bsdf_lanes = 0;
+    /* The hit points: every lane, then a select (issue 21: with a branch a lane, GCC left this
+     * loop scalar, 1.5 % of the peer render), each as origin + t dir. */
+#ifdef VD_LANES
+    for (int h = 0; h < UB_LANES; h += VD_LANES) {
+        const vdm hit = vdm_lanes_at(hit_lanes, h);
+        const vd t = vd_load_floats(tr->t + h);
+        for (int i = 0; i < 3; i++)
+            vd_store(sf->p[i] + h, vd_select(hit, vd_add(vd_load(pr->origin[i] + h), vd_mul(t, vd_load(pr->dir[i] + h))),
+                                            vd_set1(0.0)));
+    }
+#else
+    for (int l = 0; l < UB_LANES; l++)
+        for (int i = 0; i < 3; i++)
+            sf->p[i][l] = ((hit_lanes >> l) & 1) ? pr->origin[i][l] + (double)tr->t[l] * pr->dir[i][l] : 0.0;
+#endif
     for (int l = 0; l < UB_LANES; l++) {
-        double t = tr->t[l];
         for (int i = 0; i < 3; i++) {
-            sf->p[i][l] = ((hit_lanes >> l) & 1) ? pr->origin[i][l] + t * pr->dir[i][l] : 0.0;
             nw[i][l] = 0.0;
             /* Every lane has a value: add_surface_light computes all of them (and keeps the hits'). */
             sf->albedo[i][l] = sf->emission[i][l] = 0.0f;
@@ -1547,12 +1560,62 @@ static int shade_paths(const ub_tile_shading *ts, const ub_lane_pixels *pix, int
     return 1;
 }
 
+/* What write_row_passes stores for a row packet of `background` (background_paths) in sample
+ * 0, where it stores the packet's values as they are: UB_LANES pixels of each pass that is on,
+ * all alike, written once into a film of one row. Its runs are then copies of these pixels
+ * (issue 21: most of a frame is background, and each run computed every pass again). Sample 0
+ * only: later samples add into the film. */
+typedef struct {
+    int count, pass[UB_PASS_COUNT]; /* the passes that are on */
+    float pixels[UB_PASS_COUNT][4 * UB_LANES];
+} ub_background_row;
+
+static void background_row(const ub_scene *sc, const ub_paths *background, ub_background_row *row)
+{
+    ub_film one_row = *sc->film;
+    one_row.x0 = one_row.y0 = 0;
+    one_row.w = UB_LANES;
+    one_row.h = one_row.step = 1;
+    row->count = 0;
+    for (int k = 0; k < UB_PASS_COUNT; k++) {
+        one_row.pass[k] = sc->film->pass[k] ? row->pixels[k] : NULL;
+        if (sc->film->pass[k])
+            row->pass[row->count++] = k;
+    }
+    ub_scene scene = *sc;
+    scene.film = &one_row;
+    ub_counters unused; /* a background packet counts nothing (no hit, never out of steps) */
+    memset(&unused, 0, sizeof unused);
+    write_row_passes(&scene, 0, 0, 0, UB_LANES, background, &unused);
+}
+
+/* background_row's pixels into the film's run of n pixels at (x, y). */
+static void copy_background_run(const ub_film *film, const ub_background_row *row, int x, int y, int n)
+{
+    const size_t idx = (size_t)y * (size_t)film->w + (size_t)x;
+    for (int j = 0; j < row->count; j++) {
+        const int k = row->pass[j], chans = ub_pass_channels[k];
+        float *restrict dst = film->pass[k] + idx * (size_t)chans;
+        prefetch_ahead(dst, n, chans);
+        /* A whole row packet (most runs) as copies of a size known when compiled: vector moves
+         * inline, not a call to memcpy. */
+        if (n == UB_LANES && chans == 4)
+            memcpy(dst, row->pixels[k], 4 * UB_LANES * sizeof(float));
+        else if (n == UB_LANES && chans == 1)
+            memcpy(dst, row->pixels[k], UB_LANES * sizeof(float));
+        else
+            for (int f = 0; f < n * chans; f++)
+                dst[f] = row->pixels[k][f];
+    }
+}
+
 /* The passes of the chunk's background blocks (chunk_rays), at film pixel (x, y): row by row, a
  * run of adjacent blocks at a time, up to a row packet's UB_LANES pixels, since the lanes of
  * `background` are all alike (issue 21: most of a frame is such blocks, and a row of 16 pixels
- * is written with fewer instructions than four rows of four). */
+ * is written with fewer instructions than four rows of four). With `row` (sample 0), copies of
+ * its pixels. */
 static void write_background_runs(const ub_tile_shading *ts, int x, int y, const ub_chunk *ch,
-                                  const ub_paths *background, ub_counters *cnt)
+                                  const ub_paths *background, const ub_background_row *row, ub_counters *cnt)
 {
     for (int r = 0; r < UB_BLOCK_H; r++)
         for (int b = 0; b < UB_CHUNK_BLOCKS;) {
@@ -1564,7 +1627,10 @@ static void write_background_runs(const ub_tile_shading *ts, int x, int y, const
             int n = 0;
             for (; b < UB_CHUNK_BLOCKS && ch->valid[b] && ch->background[b] && n + ch->cols[b] <= UB_LANES; b++)
                 n += ch->cols[b];
-            write_row_passes(ts->sc, ts->sample, x0, y + r, n, background, cnt);
+            if (row)
+                copy_background_run(ts->sc->film, row, x0, y + r, n);
+            else
+                write_row_passes(ts->sc, ts->sample, x0, y + r, n, background, cnt);
         }
 }
 
@@ -1572,7 +1638,7 @@ static void write_background_runs(const ub_tile_shading *ts, int x, int y, const
  * film's background (chunk_rays) take theirs from `background`. Returns 0 when the render was
  * cancelled. */
 static int shade_chunk(const ub_tile_shading *ts, int x, int y, ub_chunk *ch, const ub_paths *background,
-                       ub_counters *cnt)
+                       const ub_background_row *row, ub_counters *cnt)
 {
     const ub_scene *sc = ts->sc;
     const ub_film *film = sc->film;
@@ -1590,7 +1656,7 @@ static int shade_chunk(const ub_tile_shading *ts, int x, int y, ub_chunk *ch, co
             return 0;
         write_block_passes(sc, ts->sample, x, y, b, ch->rows[b], ch->cols[b], &ps, cnt);
     }
-    write_background_runs(ts, x, y, ch, background, cnt);
+    write_background_runs(ts, x, y, ch, background, row, cnt);
     return 1;
 }
 
@@ -1639,15 +1705,19 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
     /* The paths of a packet that sees only the film's background (chunk_rays), made once. */
     const int background_only = sc->cones && (!sc->world || world_is_constant(sc->world));
     ub_paths background;
-    if (background_only)
+    ub_background_row row;
+    if (background_only) {
         background_paths(sc, &background);
+        if (sample == 0)
+            background_row(sc, &background, &row);
+    }
     ub_chunk ch;
     for (int y = ty0; y < ty1; y += UB_BLOCK_H)
         for (int x = tx0; x < tx1; x += 2 * UB_LANES) {
             if (cancelled(sc))
                 return;
             chunk_primary(sc, dps, &ts.sp, pairs, background_only, x, y, tx1, ty1, &ch, cnt);
-            if (cancelled(sc) || !shade_chunk(&ts, x, y, &ch, &background, cnt))
+            if (cancelled(sc) || !shade_chunk(&ts, x, y, &ch, &background, background_only && sample == 0 ? &row : NULL, cnt))
                 return;
         }
 }
