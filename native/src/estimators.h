@@ -1,6 +1,28 @@
 /* Distance estimators and densities of the quaternion Julia sets (sections 3 and 4.1), written
  * against the vf/vm vector interface; included by kernel.h, compiled once per SIMD flavour. */
 
+#ifdef VD_LANES
+/* The lanes h .. h + VD_LANES - 1 of a packet's bit word, as the mask of a double vector. */
+static inline vdm vdm_lanes_at(int lanes, int h)
+{
+    return vdm_from_bits((lanes >> h) & ((1 << VD_LANES) - 1));
+}
+
+/* The sums of the lane loops' expressions, in their order, in double vectors (object_rays, the
+ * cones' object_clearance, quaternion_lanes): row . p as (row0 p0 + row1 p1) + row2 p2, and offset + row . p as
+ * ((offset + row0 p0) + row1 p1) + row2 p2. */
+static inline vd vd_row_dot(const double row[3], const vd p[3])
+{
+    return vd_add(vd_add(vd_mul(vd_set1(row[0]), p[0]), vd_mul(vd_set1(row[1]), p[1])), vd_mul(vd_set1(row[2]), p[2]));
+}
+
+static inline vd vd_offset_dot(double offset, const double row[3], const vd p[3])
+{
+    return vd_add(vd_add(vd_add(vd_set1(offset), vd_mul(vd_set1(row[0]), p[0])), vd_mul(vd_set1(row[1]), p[1])),
+                  vd_mul(vd_set1(row[2]), p[2]));
+}
+#endif
+
 /* Natural logarithm of positive normal floats, within 1.8 ulp (1.71 the most measured, just below
  * the interval around 1; 1.09 for the escape estimate's x > 16), from a 16-entry table (the layout
  * of glibc's logf): x = 2^k z with z in [0.699, 1.398) cut into 16 intervals by its top mantissa
@@ -22,6 +44,16 @@ static const float ub_log_logc[16] = {
     -0x1.57bf74p-2f, -0x1.2bef08p-2f, -0x1.01eae4p-2f, -0x1.b31d84p-3f, -0x1.6574ecp-3f, -0x1.1aa2bep-3f,
     -0x1.a4e764p-4f, -0x1.1973b6p-4f, -0x1.252f4p-5f, 0x0p+0f, 0x1.b42dep-5f, 0x1.c5e54cp-4f, 0x1.526e5ep-3f,
     0x1.bc286cp-3f, 0x1.1058bep-2f, 0x1.40430ap-2f};
+
+/* The tables divided by 8 (exactly: the exponents 3 lower), for v_log_quarter_eighth. */
+static const float ub_log_invc_eighth[16] = {
+    0x1.661ec6p-3f, 0x1.571ed4p-3f, 0x1.49539ep-3f, 0x1.3c995ap-3f, 0x1.30d19p-3f, 0x1.25e228p-3f,
+    0x1.1bb4a4p-3f, 0x1.12358ep-3f, 0x1.0953f4p-3f, 0x1p-3f, 0x1.e573acp-4f, 0x1.ca4b3p-4f,
+    0x1.b20364p-4f, 0x1.9c2d14p-4f, 0x1.886e6p-4f, 0x1.767dcep-4f};
+static const float ub_log_logc_eighth[16] = {
+    -0x1.57bf74p-5f, -0x1.2bef08p-5f, -0x1.01eae4p-5f, -0x1.b31d84p-6f, -0x1.6574ecp-6f,
+    -0x1.1aa2bep-6f, -0x1.a4e764p-7f, -0x1.1973b6p-7f, -0x1.252f4p-8f, 0x0p+0f, 0x1.b42dep-8f,
+    0x1.c5e54cp-7f, 0x1.526e5ep-6f, 0x1.bc286cp-6f, 0x1.1058bep-5f, 0x1.40430ap-5f};
 
 /* v_log's polynomial, from the reduction of x (v_log_reduce) and the exponent k it takes. */
 static inline vf v_log_from(vf z, vf k, vf invc, vf logc)
@@ -49,6 +81,23 @@ static inline vf v_log_quarter(vf x)
     vf z, k, invc, logc;
     v_log_reduce(x, ub_log_invc, ub_log_logc, &z, &k, &invc, &logc);
     return v_log_from(z, v_sub(k, v_set1(2.0f)), invc, logc);
+}
+
+/* v_log_quarter(x) / 8, with its bits divided by 8 (exactly), without a multiplication: every
+ * constant of v_log_from is scaled by a power of 2, each rounding with it, so r' = r / 8 and
+ * r'^2 = r^2 / 64 (normal floats: |r| >= 2^-47 where it is not 0), and the polynomial's
+ *   q / 8 = r' + r'^2 (8 p23 + r'^2 512 p45),  p23 = -1/2 + r/3,  p45 = -1/4 + r/5,
+ * in fmas of the scaled terms (8 p23 = fma(64/3, r', -4), 512 p45 = fma(4096/5, r', -128)).
+ * Issue 21: the escape estimate's factor 1/8 folded in, one operation fewer in each step's tail. */
+static inline vf v_log_quarter_eighth(vf x)
+{
+    vf z, k, invc, logc;
+    v_log_reduce(x, ub_log_invc_eighth, ub_log_logc_eighth, &z, &k, &invc, &logc);
+    const vf r = v_fma(z, invc, v_set1(-0.125f)), r2 = v_mul(r, r);
+    const vf p23x8 = v_fma(v_set1(1.0f / 3.0f * 64.0f), r, v_set1(-4.0f));
+    const vf p45x512 = v_fma(v_set1(0.2f * 4096.0f), r, v_set1(-128.0f));
+    const vf q = v_fma(v_fma(p45x512, r2, p23x8), r2, r);
+    return v_add(v_fma(v_sub(k, v_set1(2.0f)), v_set1(0.693147180559945f * 0.125f), logc), q);
 }
 
 /* The quaternion iteration in four numbers (issue 21). For z = (a, v), z^2 + mu = (a^2 - |v|^2 +
@@ -768,8 +817,10 @@ static inline __attribute__((always_inline)) void de_julia_pair_body(const ub_de
     }
     for (int k = 0; k < 2; k++) {
         vm escaped = v_gt(r2[k], k4->bail2x4);
-        vf lr2 = v_log_quarter(r2[k]);
-        dist[k] = v_select(escaped, doubled_escape_estimate(r2[k], lr2, dr2[k]), v_set1(0.0f));
+        /* doubled_escape_estimate's bits: (s lr2) / 8 = s (lr2 / 8) exactly, no product over-
+         * or underflowing (r2 < 2^90 with UB_MAX_BAILOUT, lr2 > 2^-24, grad2 a float). */
+        vf lr2_eighth = v_log_quarter_eighth(r2[k]);
+        dist[k] = v_select(escaped, v_mul(v_sqrt(v_div(r2[k], dr2[k])), lr2_eighth), v_set1(0.0f));
         iters[k] = n[k];
     }
 }
@@ -888,6 +939,18 @@ static inline __attribute__((always_inline)) void quaternion_lanes(const ub_obje
                                                                    vf q[4])
 {
     float qs[4][UB_LANES];
+#ifdef VD_LANES
+    /* world_to_object_point and to_quaternion in double vectors, each sum in their order (issue
+     * 21: GCC left the lane loop scalar). */
+    for (int h = 0; h < UB_LANES; h += VD_LANES) {
+        const vd wp[3] = {vd_load(p[0] + h), vd_load(p[1] + h), vd_load(p[2] + h)};
+        vd op[3];
+        for (int i = 0; i < 3; i++)
+            op[i] = vd_add(vd_row_dot(o->world_to_object[i], wp), vd_set1(o->world_to_object[i][3]));
+        for (int c = 0; c < 4; c++)
+            vd_store_floats(qs[c] + h, vd_offset_dot(o->slice_origin[c], o->slice_basis[c], op));
+    }
+#else
     for (int l = 0; l < UB_LANES; l++) {
         double wp[3] = {p[0][l], p[1][l], p[2][l]}, op[3];
         float ql[4];
@@ -896,6 +959,7 @@ static inline __attribute__((always_inline)) void quaternion_lanes(const ub_obje
         for (int c = 0; c < 4; c++)
             qs[c][l] = ql[c];
     }
+#endif
     for (int c = 0; c < 4; c++)
         q[c] = v_load(qs[c]);
 }

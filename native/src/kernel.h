@@ -498,18 +498,13 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         sf->bias[l] = 0.0f;
         sf->alpha[l] = 1.0f;
     }
-    if (sh->sea) /* apart: a bit word built in the loop above kept it from vector code */
-        for (int l = 0; l < UB_LANES; l++)
-            if (((hit_lanes >> l) & 1) && tr->object[l] == UB_HIT_SEA)
-                sea_lanes |= 1 << l;
+    if (sh->sea)
+        sea_lanes = hit_lanes & lanes_int_eq(tr->object, UB_HIT_SEA);
     for (int k = 0; k < sc->object_count; k++) {
         if (cancelled(sc))
             return;
         const ub_object *o = &sc->objects[k];
-        int mine = 0;
-        for (int l = 0; l < UB_LANES; l++)
-            if (((hit_lanes >> l) & 1) && tr->object[l] == k)
-                mine |= 1 << l;
+        const int mine = hit_lanes & lanes_int_eq(tr->object, k);
         if (!mine)
             continue;
         float hb_[UB_LANES], e0[UB_LANES], e1[UB_LANES];
@@ -1020,26 +1015,23 @@ static void background_along(const ub_scene *sc, int bounce, const double d[3], 
 static int add_background(const ub_scene *sc, int bounce, int alive, const ub_packet_rays *pr,
                           const ub_trace_result *tr, ub_paths *ps)
 {
-    int hit_lanes = 0;
-    for (int l = 0; l < UB_LANES; l++)
-        hit_lanes |= (tr->object[l] != UB_HIT_NONE) << l;
-    hit_lanes &= alive;
+    const int hit_lanes = alive & ~lanes_int_eq(tr->object, UB_HIT_NONE);
     const int missed = alive & ~hit_lanes;
     if (!sc->world) {
-        /* The film's background colour alone: the same sums for every missed lane, as one loop
-         * of selects the compiler vectorises (issue 21: the lane-by-lane calls were 4 % of the
-         * peer render, two thirds of whose pixels miss). */
+        /* The film's background colour alone: the same sums for every missed lane, as vector
+         * selects (issue 21: the lane-by-lane calls were 4 % of the peer render, two thirds of
+         * whose pixels miss; GCC left the lane loop that replaced them scalar). */
         const ub_film *film = sc->film;
-        for (int i = 0; i < 3; i++)
-            for (int l = 0; l < UB_LANES; l++) {
-                const int m = (missed >> l) & 1;
-                const float add = ps->W[l] * ps->tint[i][l] * film->background[i];
-                ps->L[i][l] = m ? ps->L[i][l] + add : ps->L[i][l];
-                if (bounce > 0) {
-                    const float add_r = ps->Wr[l] * ps->tint[i][l] * film->background[i];
-                    ps->R[i][l] = m ? ps->R[i][l] + add_r : ps->R[i][l];
-                }
+        const vm m = m_from_bits(missed);
+        for (int i = 0; i < 3; i++) {
+            const vf background = v_set1(film->background[i]), tint = v_load(ps->tint[i]);
+            const vf L = v_load(ps->L[i]);
+            v_store(ps->L[i], v_select(m, v_add(L, v_mul(v_mul(v_load(ps->W), tint), background)), L));
+            if (bounce > 0) {
+                const vf R = v_load(ps->R[i]);
+                v_store(ps->R[i], v_select(m, v_add(R, v_mul(v_mul(v_load(ps->Wr), tint), background)), R));
             }
+        }
         return hit_lanes;
     }
     for (int l = 0; l < UB_LANES; l++) {
@@ -1337,19 +1329,15 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
     float *const *pass = film->pass;
     const int S = sh->samples;
     const int lanes = grid_lanes(u->rows, u->cols, stride);
-    int hit[UB_LANES], hit_bits = 0;
+    const int hit_bits = UB_ALL_LANES & ~lanes_int_eq(ps->primary_obj, UB_HIT_NONE);
+    int hit[UB_LANES];
     for (int l = 0; l < UB_LANES; l++)
         hit[l] = ps->primary_obj[l] != UB_HIT_NONE;
-    for (int l = 0; l < UB_LANES; l++)
-        hit_bits |= hit[l] << l;
     /* Lanes outside a panoramic camera's lens were not traced: never out of steps. Counted from a
      * bit word, not by reading back the pass's lanes just stored one at a time: a vector load of
      * those stores waits for them to reach the cache (issue 21: that wait was a quarter of this
      * function's time on the peer scene). */
-    int gave_up = 0;
-    for (int l = 0; l < UB_LANES; l++)
-        gave_up |= (ps->primary_out_of_steps[l] != 0) << l;
-    gave_up &= ~ps->unseen;
+    const int gave_up = UB_ALL_LANES & ~lanes_int_eq(ps->primary_out_of_steps, 0) & ~ps->unseen;
     cnt->out_of_steps += (uint64_t)__builtin_popcount((unsigned)(gave_up & lanes));
     if (pass[UB_PASS_MAX_STEPS]) {
         float out_of_steps[1][UB_LANES];

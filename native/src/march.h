@@ -19,28 +19,6 @@ typedef struct {
     float s_max[UB_LANES];      /* distance marched from entry before giving up */
 } ub_object_rays;
 
-#ifdef VD_LANES
-/* The lanes h .. h + VD_LANES - 1 of a packet's bit word, as the mask of a double vector. */
-static inline vdm vdm_lanes_at(int lanes, int h)
-{
-    return vdm_from_bits((lanes >> h) & ((1 << VD_LANES) - 1));
-}
-
-/* The sums of the lane loops' expressions, in their order, in double vectors (object_rays and the
- * cones' object_clearance): row . p as (row0 p0 + row1 p1) + row2 p2, and offset + row . p as
- * ((offset + row0 p0) + row1 p1) + row2 p2. */
-static inline vd vd_row_dot(const double row[3], const vd p[3])
-{
-    return vd_add(vd_add(vd_mul(vd_set1(row[0]), p[0]), vd_mul(vd_set1(row[1]), p[1])), vd_mul(vd_set1(row[2]), p[2]));
-}
-
-static inline vd vd_offset_dot(double offset, const double row[3], const vd p[3])
-{
-    return vd_add(vd_add(vd_add(vd_set1(offset), vd_mul(vd_set1(row[0]), p[0])), vd_mul(vd_set1(row[1]), p[1])),
-                  vd_mul(vd_set1(row[2]), p[2]));
-}
-#endif
-
 /* Clip each lane's ray against the object's bounding ball; returns the lanes that touch it. The
  * same operations in the same order for every lane, in double vectors where the kernel has them
  * (issue 21: the lane-by-lane loop was 8.6 % of the peer render), else lane by lane: only + - * / sqrt

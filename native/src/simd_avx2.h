@@ -49,6 +49,13 @@ static inline vm m_from_bits(int bits)
     __m256i b = _mm256_and_si256(_mm256_set1_epi32(bits), lane);
     return _mm256_castsi256_ps(_mm256_cmpeq_epi32(b, lane));
 }
+/* The bit word of the lanes l where a[l] == value (a: an int per lane): a compare and its sign
+ * bits (issue 21: GCC left such lane loops scalar). */
+static inline int lanes_int_eq(const int *a, int value)
+{
+    const __m256i eq = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)a), _mm256_set1_epi32(value));
+    return _mm256_movemask_ps(_mm256_castsi256_ps(eq));
+}
 /* m ? a : b */
 static inline vf v_select(vm m, vf a, vf b) { return _mm256_blendv_ps(b, a, m); }
 /* a + (m ? 1 : 0) */
@@ -86,6 +93,8 @@ static inline vd vd_load(const double *p) { return _mm256_loadu_pd(p); }
 static inline void vd_store(double *p, vd a) { _mm256_storeu_pd(p, a); }
 /* VD_LANES floats widened to doubles (exact). */
 static inline vd vd_load_floats(const float *p) { return _mm256_cvtps_pd(_mm_loadu_ps(p)); }
+/* VD_LANES doubles rounded to floats (to nearest, as a C cast). */
+static inline void vd_store_floats(float *p, vd a) { _mm_storeu_ps(p, _mm256_cvtpd_ps(a)); }
 static inline vd vd_add(vd a, vd b) { return _mm256_add_pd(a, b); }
 static inline vd vd_sub(vd a, vd b) { return _mm256_sub_pd(a, b); }
 static inline vd vd_mul(vd a, vd b) { return _mm256_mul_pd(a, b); }

@@ -38,6 +38,12 @@ static inline vm m_andnot(vm a, vm b) { return (vm)(~a & b); } /* !a & b */
 static inline vm m_false(void) { return 0; }
 static inline int m_bits(vm a) { return (int)a; }
 static inline vm m_from_bits(int bits) { return (vm)bits; }
+/* The bit word of the lanes l where a[l] == value (a: an int per lane): one compare into a mask
+ * (issue 21: GCC left such lane loops scalar). */
+static inline int lanes_int_eq(const int *a, int value)
+{
+    return (int)_mm512_cmpeq_epi32_mask(_mm512_loadu_si512(a), _mm512_set1_epi32(value));
+}
 /* The lanes of `lanes` where a > b does not hold (NaN included): m_andnot(v_gt(a, b), lanes) as one
  * masked compare, not a compare and a mask instruction (issue 21: the iteration loops' escape test;
  * on the Xeons every mask instruction takes port 0, beside the FMAs). */
@@ -94,6 +100,8 @@ static inline vd vd_load(const double *p) { return _mm512_loadu_pd(p); }
 static inline void vd_store(double *p, vd a) { _mm512_storeu_pd(p, a); }
 /* VD_LANES floats widened to doubles (exact). */
 static inline vd vd_load_floats(const float *p) { return _mm512_cvtps_pd(_mm256_loadu_ps(p)); }
+/* VD_LANES doubles rounded to floats (to nearest, as a C cast). */
+static inline void vd_store_floats(float *p, vd a) { _mm256_storeu_ps(p, _mm512_cvtpd_ps(a)); }
 static inline vd vd_add(vd a, vd b) { return _mm512_add_pd(a, b); }
 static inline vd vd_sub(vd a, vd b) { return _mm512_sub_pd(a, b); }
 static inline vd vd_mul(vd a, vd b) { return _mm512_mul_pd(a, b); }

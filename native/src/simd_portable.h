@@ -50,6 +50,8 @@ static inline int m_bits(vm a) { int b = 0; V_LOOP(i) b |= (a.v[i] ? 1 : 0) << i
 static inline vm m_andnot_gt(vf a, vf b, vm lanes) { return m_andnot(v_gt(a, b), lanes); }
 static inline int m_either(vm a, vm b) { return m_bits(m_or(a, b)) != 0; }
 static inline vm m_from_bits(int bits) { vm r; V_LOOP(i) r.v[i] = (bits >> i) & 1 ? -1 : 0; return r; }
+/* The bit word of the lanes l where a[l] == value (a: an int per lane). */
+static inline int lanes_int_eq(const int *a, int value) { int b = 0; V_LOOP(i) b |= (a[i] == value) << i; return b; }
 static inline vf v_select(vm m, vf a, vf b) { V_LOOP(i) a.v[i] = m.v[i] ? a.v[i] : b.v[i]; return a; }
 static inline vf v_count(vf a, vm m) { V_LOOP(i) a.v[i] = a.v[i] + (m.v[i] ? 1.0f : 0.0f); return a; }
 
