@@ -55,23 +55,29 @@ static const float ub_log_logc_eighth[16] = {
     -0x1.1aa2bep-6f, -0x1.a4e764p-7f, -0x1.1973b6p-7f, -0x1.252f4p-8f, 0x0p+0f, 0x1.b42dep-8f,
     0x1.c5e54cp-7f, 0x1.526e5ep-6f, 0x1.bc286cp-6f, 0x1.1058bep-5f, 0x1.40430ap-5f};
 
-/* v_log's polynomial, from the reduction of x (v_log_reduce) and the exponent k it takes. */
-static inline vf v_log_from(vf z, vf k, vf invc, vf logc)
+/* v_log's polynomial, from the reduction of x (v_log_reduce) and the exponent k it takes, times
+ * `scale`, a power of 2 known when compiled (1, or 1/8 for v_log_quarter_eighth), with tables
+ * invc and logc scaled by it. Every constant is scaled by a power of 2, so each rounding scales
+ * with it and the result is exactly scale times the unscaled one (normal floats: |r| >= 2^-47
+ * where it is not 0): r' = r scale, r'^2 = r^2 scale^2, and
+ *   q scale = r' + r'^2 (p23 / scale + r'^2 p45 / scale^3),  p23 = -1/2 + r/3,  p45 = -1/4 + r/5,
+ * the scaled terms each one fma of r'. With scale 1 these are the plain constants. */
+static inline __attribute__((always_inline)) vf v_log_from(vf z, vf k, vf invc, vf logc, const float scale)
 {
-    vf r = v_fma(z, invc, v_set1(-1.0f));
+    vf r = v_fma(z, invc, v_set1(-1.0f * scale));
     vf r2 = v_mul(r, r);
     /* log1p(r) = r + r^2 ((-1/2 + r/3) + r^2 (-1/4 + r/5)) */
-    vf p23 = v_fma(v_set1(1.0f / 3.0f), r, v_set1(-0.5f));
-    vf p45 = v_fma(v_set1(0.2f), r, v_set1(-0.25f));
+    vf p23 = v_fma(v_set1(1.0f / 3.0f / (scale * scale)), r, v_set1(-0.5f / scale));
+    vf p45 = v_fma(v_set1(0.2f / (scale * scale * scale * scale)), r, v_set1(-0.25f / (scale * scale * scale)));
     vf q = v_fma(v_fma(p45, r2, p23), r2, r);
-    return v_add(v_fma(k, v_set1(0.693147180559945f), logc), q);
+    return v_add(v_fma(k, v_set1(0.693147180559945f * scale), logc), q);
 }
 
 static inline vf v_log(vf x)
 {
     vf z, k, invc, logc;
     v_log_reduce(x, ub_log_invc, ub_log_logc, &z, &k, &invc, &logc);
-    return v_log_from(z, k, invc, logc);
+    return v_log_from(z, k, invc, logc, 1.0f);
 }
 
 /* v_log(x / 4) for x / 4 normal, with its bits: x / 4 has x's mantissa and an exponent 2 lower,
@@ -80,24 +86,16 @@ static inline vf v_log_quarter(vf x)
 {
     vf z, k, invc, logc;
     v_log_reduce(x, ub_log_invc, ub_log_logc, &z, &k, &invc, &logc);
-    return v_log_from(z, v_sub(k, v_set1(2.0f)), invc, logc);
+    return v_log_from(z, v_sub(k, v_set1(2.0f)), invc, logc, 1.0f);
 }
 
-/* v_log_quarter(x) / 8, with its bits divided by 8 (exactly), without a multiplication: every
- * constant of v_log_from is scaled by a power of 2, each rounding with it, so r' = r / 8 and
- * r'^2 = r^2 / 64 (normal floats: |r| >= 2^-47 where it is not 0), and the polynomial's
- *   q / 8 = r' + r'^2 (8 p23 + r'^2 512 p45),  p23 = -1/2 + r/3,  p45 = -1/4 + r/5,
- * in fmas of the scaled terms (8 p23 = fma(64/3, r', -4), 512 p45 = fma(4096/5, r', -128)).
- * Issue 21: the escape estimate's factor 1/8 folded in, one operation fewer in each step's tail. */
+/* v_log_quarter(x) / 8, with its bits divided by 8 exactly (v_log_from's scale): issue 21, the
+ * escape estimate's factor 1/8 folded in, one operation fewer in each step's tail. */
 static inline vf v_log_quarter_eighth(vf x)
 {
     vf z, k, invc, logc;
     v_log_reduce(x, ub_log_invc_eighth, ub_log_logc_eighth, &z, &k, &invc, &logc);
-    const vf r = v_fma(z, invc, v_set1(-0.125f)), r2 = v_mul(r, r);
-    const vf p23x8 = v_fma(v_set1(1.0f / 3.0f * 64.0f), r, v_set1(-4.0f));
-    const vf p45x512 = v_fma(v_set1(0.2f * 4096.0f), r, v_set1(-128.0f));
-    const vf q = v_fma(v_fma(p45x512, r2, p23x8), r2, r);
-    return v_add(v_fma(v_sub(k, v_set1(2.0f)), v_set1(0.693147180559945f * 0.125f), logc), q);
+    return v_log_from(z, v_sub(k, v_set1(2.0f)), invc, logc, 0.125f);
 }
 
 /* The quaternion iteration in four numbers (issue 21). For z = (a, v), z^2 + mu = (a^2 - |v|^2 +

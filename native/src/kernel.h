@@ -1693,11 +1693,13 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
     /* The paths of a packet that sees only the film's background (chunk_rays), made once. */
     const int background_only = sc->cones && (!sc->world || world_is_constant(sc->world));
     ub_paths background;
-    ub_background_row row;
+    ub_background_row row, *background_row_or_null = NULL;
     if (background_only) {
         background_paths(sc, &background);
-        if (sample == 0)
+        if (sample == 0) {
             background_row(sc, &background, &row);
+            background_row_or_null = &row;
+        }
     }
     ub_chunk ch;
     for (int y = ty0; y < ty1; y += UB_BLOCK_H)
@@ -1705,7 +1707,7 @@ static void tile_shade(const ub_scene *sc, int trace_first, int sample, int tx0,
             if (cancelled(sc))
                 return;
             chunk_primary(sc, dps, &ts.sp, pairs, background_only, x, y, tx1, ty1, &ch, cnt);
-            if (cancelled(sc) || !shade_chunk(&ts, x, y, &ch, &background, background_only && sample == 0 ? &row : NULL, cnt))
+            if (cancelled(sc) || !shade_chunk(&ts, x, y, &ch, &background, background_row_or_null, cnt))
                 return;
         }
 }
