@@ -525,6 +525,8 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
         const double alpha = o->normal_alpha, sigma_min = o->sigma_min;
         const int linear = o->normal_delta == 1.0;
         const float reflectivity = o->reflectivity;
+        float bias[UB_LANES];
+        UB_VECTOR_LOOP
         for (int l = 0; l < UB_LANES; l++) {
             for (int i = 0; i < 3; i++)
                 back_p[i][l] = sf->p[i][l] - back * pr->dir[i][l];
@@ -532,9 +534,12 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
             const double path = (double)pr->t_base[l] + tr->t[l];
             hb_[l] = m ? (float)(gradient_step_linear(alpha, path) / sigma_min) : 1.0f; /* delta 1; else below */
             /* Secondary rays start a few hit thresholds off the surface. */
-            sf->bias[l] = m ? 4.0f * (e0[l] + e1[l] * (float)path) : sf->bias[l];
-            sf->reflectivity[l] = m ? reflectivity : sf->reflectivity[l];
+            bias[l] = 4.0f * (e0[l] + e1[l] * (float)path);
         }
+        /* (not `x = m ? y : x` in the loop: a masked store, slow on AMD's cores; v_store_lanes) */
+        const vm mine_mask = m_from_bits(mine);
+        v_store_lanes(sf->bias, mine_mask, v_load(bias));
+        v_store_lanes(sf->reflectivity, mine_mask, v_set1(reflectivity));
         const int zbuffer = o->normal_method == UB_NORMAL_ZBUFFER && bounce == 0;
         for (int l = 0; l < UB_LANES && (!linear || zbuffer); l++) {
             if (!((mine >> l) & 1))
@@ -571,7 +576,7 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
                 const vdm keep = vdm_lanes_at(simd_lanes, h);
                 for (int i = 0; i < 3; i++) {
                     const double column[3] = {w[0][i], w[1][i], w[2][i]};
-                    vd_store(nw[i] + h, vd_select(keep, vd_row_dot(column, gd), vd_load(nw[i] + h)));
+                    vd_store_lanes(nw[i] + h, keep, vd_row_dot(column, gd));
                 }
             }
 #else
@@ -739,6 +744,9 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
             for (int i = 0; i < 3; i++)
                 sr.origin[i][l] = sr.dir[i][l] = 0.0;
             sr.dir[2][l] = 1.0;
+            cosv[l] = 0.0; /* (read, not used, by the sums' vector code below) */
+            for (int i = 0; i < 3; i++)
+                E[i][l] = 0.0;
             if (!((lanes >> l) & 1))
                 continue;
             double p[3] = {sf->p[0][l], sf->p[1][l], sf->p[2][l]}, dl[3], dist, e[3], ta;
@@ -801,18 +809,25 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
                     vis[l] = st.penumbra[l] * st.penumbra[l] * (3.0f - 2.0f * st.penumbra[l]);
             }
         }
+        /* The candidates' sums: every lane computed, the candidates' stored (v_store_lanes: a lane
+         * loop that skips the others is a masked store, slow on AMD's cores). */
+        float direct_sum[3][UB_LANES], unshadowed_sum[UB_LANES], lit_sum[UB_LANES];
+        UB_VECTOR_LOOP
         for (int l = 0; l < UB_LANES; l++) {
-            if (!((cand >> l) & 1))
-                continue;
             float sum = 0.0f;
             for (int i = 0; i < 3; i++) {
                 float e = (float)(E[i][l] * cosv[l]);
-                direct[i][l] += e * vis[l];
+                direct_sum[i][l] = direct[i][l] + e * vis[l];
                 sum += e;
             }
-            unshadowed[l] += sum;
-            lit[l] += sum * vis[l];
+            unshadowed_sum[l] = unshadowed[l] + sum;
+            lit_sum[l] = lit[l] + sum * vis[l];
         }
+        const vm cand_mask = m_from_bits(cand);
+        for (int i = 0; i < 3; i++)
+            v_store_lanes(direct[i], cand_mask, v_load(direct_sum[i]));
+        v_store_lanes(unshadowed, cand_mask, v_load(unshadowed_sum));
+        v_store_lanes(lit, cand_mask, v_load(lit_sum));
     }
     for (int l = 0; l < UB_LANES; l++)
         shadow[l] = unshadowed[l] > 0.0f ? lit[l] / unshadowed[l] : 1.0f;
@@ -1026,10 +1041,10 @@ static int add_background(const ub_scene *sc, int bounce, int alive, const ub_pa
         for (int i = 0; i < 3; i++) {
             const vf background = v_set1(film->background[i]), tint = v_load(ps->tint[i]);
             const vf L = v_load(ps->L[i]);
-            v_store(ps->L[i], v_select(m, v_add(L, v_mul(v_mul(v_load(ps->W), tint), background)), L));
+            v_store_lanes(ps->L[i], m, v_add(L, v_mul(v_mul(v_load(ps->W), tint), background)));
             if (bounce > 0) {
                 const vf R = v_load(ps->R[i]);
-                v_store(ps->R[i], v_select(m, v_add(R, v_mul(v_mul(v_load(ps->Wr), tint), background)), R));
+                v_store_lanes(ps->R[i], m, v_add(R, v_mul(v_mul(v_load(ps->Wr), tint), background)));
             }
         }
         return hit_lanes;
@@ -1243,45 +1258,49 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
     const vm hit_mask = m_from_bits(hit_lanes);
     for (int i = 0; i < 3; i++) {
         const vf L = v_load(ps->L[i]), tint = v_load(ps->tint[i]), lit = v_load(light[i]);
-        v_store(ps->L[i], v_select(hit_mask, v_add(L, v_mul(v_mul(v_load(ps->W), tint), lit)), L));
+        v_store_lanes(ps->L[i], hit_mask, v_add(L, v_mul(v_mul(v_load(ps->W), tint), lit)));
         if (bounce > 0) {
             const vf R = v_load(ps->R[i]);
-            v_store(ps->R[i], v_select(hit_mask, v_add(R, v_mul(v_mul(v_load(ps->Wr), tint), lit)), R));
+            v_store_lanes(ps->R[i], hit_mask, v_add(R, v_mul(v_mul(v_load(ps->Wr), tint), lit)));
         } else {
-            v_store(ps->pass_diffuse[i], v_select(hit_mask, v_load(dif[i]), v_load(ps->pass_diffuse[i])));
-            v_store(ps->pass_ambient[i], v_select(hit_mask, v_load(amb[i]), v_load(ps->pass_ambient[i])));
+            v_store_lanes(ps->pass_diffuse[i], hit_mask, v_load(dif[i]));
+            v_store_lanes(ps->pass_ambient[i], hit_mask, v_load(amb[i]));
         }
     }
+    /* The hit lanes' new weights, stored by v_store_lanes (a masked store where compilers see
+     * `x = hit ? y : x` in a lane loop: slow on AMD's cores). */
+    float new_wr[UB_LANES], new_w[UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
-        const int hit = (hit_lanes >> l) & 1, mat = (sf->bsdf_lanes >> l) & 1;
+        const int mat = (sf->bsdf_lanes >> l) & 1;
         const float a = sf->alpha[l], kept = (1.0f - fog[l]) * (plan ? 1.0f : r[l]);
         /* With global illumination the Reflection pass follows the mirrored paths. */
         const float wr0 = plan ? (plan->kind[l] == GI_MIRROR ? 1.0f : 0.0f) : r[l], wr1 = ps->Wr[l] * kept;
         const float wr = bounce == 0 ? wr0 : wr1, wr_material = wr * a;
         /* Global illumination: the bounce's weight is in the tint (its chances included). */
         const float w = ps->W[l] * kept, w_material = w * a;
-        ps->Wr[l] = hit ? (mat ? wr_material : wr) : ps->Wr[l];
-        ps->W[l] = hit ? (mat ? w_material : w) : ps->W[l];
+        new_wr[l] = mat ? wr_material : wr;
+        new_w[l] = mat ? w_material : w;
     }
+    v_store_lanes(ps->Wr, hit_mask, v_load(new_wr));
+    v_store_lanes(ps->W, hit_mask, v_load(new_w));
     if (bounce == 0) {
         /* The first hit's data for the passes, as vector selects (issue 21: clang made the lane
          * loop scalar, a branch-free copy of one lane at a time). */
         for (int i = 0; i < 3; i++) {
-            v_store(ps->nrm0[i], v_select(hit_mask, v_load(sf->n[i]), v_load(ps->nrm0[i])));
-            v_store(ps->albedo0[i], v_select(hit_mask, v_load(sf->albedo[i]), v_load(ps->albedo0[i])));
+            v_store_lanes(ps->nrm0[i], hit_mask, v_load(sf->n[i]));
+            v_store_lanes(ps->albedo0[i], hit_mask, v_load(sf->albedo[i]));
 #ifdef VD_LANES
             for (int h = 0; h < UB_LANES; h += VD_LANES)
-                vd_store(ps->pos0[i] + h, vd_select(vdm_lanes_at(hit_lanes, h), vd_load(sf->p[i] + h),
-                                                    vd_load(ps->pos0[i] + h)));
+                vd_store_lanes(ps->pos0[i] + h, vdm_lanes_at(hit_lanes, h), vd_load(sf->p[i] + h));
 #else
             for (int l = 0; l < UB_LANES; l++)
                 ps->pos0[i][l] = (hit_lanes >> l) & 1 ? sf->p[i][l] : ps->pos0[i][l];
 #endif
         }
-        v_store(ps->pass_ao, v_select(hit_mask, v_load(ao), v_load(ps->pass_ao)));
-        v_store(ps->pass_shadow, v_select(hit_mask, v_load(shadow), v_load(ps->pass_shadow)));
-        v_store(ps->pass_trap, v_select(hit_mask, v_load(sf->trap), v_load(ps->pass_trap)));
-        v_store(ps->coverage, v_select(hit_mask, v_load(sf->alpha), v_load(ps->coverage)));
+        v_store_lanes(ps->pass_ao, hit_mask, v_load(ao));
+        v_store_lanes(ps->pass_shadow, hit_mask, v_load(shadow));
+        v_store_lanes(ps->pass_trap, hit_mask, v_load(sf->trap));
+        v_store_lanes(ps->coverage, hit_mask, v_load(sf->alpha));
     }
     /* The lanes whose paths go on: first as a bit word, so that a packet none of whose paths goes
      * on (no reflection) skips the loop, which the compiler otherwise runs as vectors over every
@@ -1380,7 +1399,7 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
     if (pass[UB_PASS_DEPTH] && sample == 0) {
         /* Along the view axis, or for panoramic cameras the distance from the camera (Cycles'
          * camera_z_depth). */
-        float depth[1][UB_LANES];
+        float depth[1][UB_LANES], real_z[UB_LANES];
         double d[UB_LANES];
         const double *c = cam->position, *f = cam->forward;
         /* Two loops, each without branches: vector code. */
@@ -1397,12 +1416,16 @@ static inline __attribute__((always_inline)) void write_passes_body(const ub_sce
          * the lanes here; a NaN depth is no hit's). One loop: a second one reloaded the depths just
          * stored, a vector load of stores the compiler had partly made lane by lane, which waited
          * for them to reach the cache (issue 21). */
+        UB_VECTOR_LOOP
         for (int l = 0; l < UB_LANES; l++) {
             const float z = hit[l] ? (float)d[l] : UB_BACKGROUND_DEPTH;
             const int real = ((lanes >> l) & 1) && hit[l] && z < 0.5f * UB_BACKGROUND_DEPTH;
             depth[0][l] = z;
-            cnt->nearest_lanes[l] = real && z < cnt->nearest_lanes[l] ? z : cnt->nearest_lanes[l];
+            real_z[l] = real ? z : INFINITY;
         }
+        /* min(real_z, nearest) = real && z < nearest ? z : nearest (v_min: a < b ? a : b), no
+         * select of the stored value (a masked store, slow on AMD's cores) */
+        v_store(cnt->nearest_lanes, v_min(v_load(real_z), v_load(cnt->nearest_lanes)));
         put_lanes(pass[UB_PASS_DEPTH], u, stride, 1, depth, sample, S, PASS_DATA);
     }
     /* The first hit's data, zero where the camera ray missed. */

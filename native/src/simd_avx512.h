@@ -52,6 +52,8 @@ static inline vm m_andnot_gt(vf a, vf b, vm lanes) { return _mm512_mask_cmp_ps_m
 static inline int m_either(vm a, vm b) { return !_kortestz_mask16_u8(a, b); }
 /* m ? a : b */
 static inline vf v_select(vm m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, a); }
+/* p's lanes m take a, the others keep theirs (simd_avx2.h); a masked store is a plain one here. */
+static inline void v_store_lanes(float *p, vm m, vf a) { _mm512_storeu_ps(p, _mm512_mask_blend_ps(m, _mm512_loadu_ps(p), a)); }
 /* a + (m ? 1 : 0) */
 static inline vf v_count(vf a, vm m) { return _mm512_mask_add_ps(a, m, a, _mm512_set1_ps(1.0f)); }
 
@@ -120,6 +122,7 @@ static inline vdm vdm_andnot(vdm a, vdm b) { return (vdm)(~a & b); } /* !a & b *
 static inline int vdm_bits(vdm a) { return (int)a; }
 static inline vdm vdm_from_bits(int bits) { return (vdm)bits; }
 static inline vd vd_select(vdm m, vd a, vd b) { return _mm512_mask_blend_pd(m, b, a); } /* m ? a : b */
+static inline void vd_store_lanes(double *p, vdm m, vd a) { _mm512_storeu_pd(p, _mm512_mask_blend_pd(m, _mm512_loadu_pd(p), a)); }
 /* The double at byte offset `offset` (an integer below 2^31) from base, in the lanes of m; the
  * others keep src. */
 static inline vd vd_gather(vd src, vdm m, const void *base, vd offset)

@@ -53,6 +53,8 @@ static inline vm m_from_bits(int bits) { vm r; V_LOOP(i) r.v[i] = (bits >> i) & 
 /* The bit word of the lanes l where a[l] == value (a: an int per lane). */
 static inline int lanes_int_eq(const int *a, int value) { int b = 0; V_LOOP(i) b |= (a[i] == value) << i; return b; }
 static inline vf v_select(vm m, vf a, vf b) { V_LOOP(i) a.v[i] = m.v[i] ? a.v[i] : b.v[i]; return a; }
+/* p's lanes m take a, the others keep theirs (simd_avx2.h). */
+static inline void v_store_lanes(float *p, vm m, vf a) { v_store(p, v_select(m, a, v_load(p))); }
 static inline vf v_count(vf a, vm m) { V_LOOP(i) a.v[i] = a.v[i] + (m.v[i] ? 1.0f : 0.0f); return a; }
 
 /* v_log's reduction (estimators.h): x = 2^k z with z in [0.699, 1.398), and the table entries
