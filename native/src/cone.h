@@ -265,9 +265,8 @@ static void object_clearance(const ub_object *o, const ub_de_params *dp, int ope
         const vd ahead = vd_add(vd_load(t + h), vd_max(bound, zero));
         bound = vd_sub(bound, vd_add(vd_load_floats(e0 + h), vd_mul(vd_load_floats(e1 + h), ahead)));
         /* ub_fmin(clear, bound): a NaN bound leaves clear */
-        const vd old = vd_load(clear + h);
-        const vd nearer = vd_select(vd_ge(bound, bound), vd_min(old, bound), old);
-        vd_store_lanes(clear + h, vdm_lanes_at(open, h), nearer);
+        vd_store_lanes(clear + h, vdm_and(vdm_lanes_at(open, h), vd_ge(bound, bound)),
+                       vd_min(vd_load(clear + h), bound));
     }
 #else
     for (int l = 0; l < UB_LANES; l++) {
@@ -473,8 +472,7 @@ static int lane_starts(const ub_cone_cache *cc, const int px[UB_LANES], const in
 static void cone_start_rays(const double start[UB_LANES], ub_packet_rays *pr)
 {
 #ifdef VD_LANES
-    /* ub_fmax(t_min, start) as vectors: max where start is a number, else t_min kept (the lane
-     * loop was a masked store, slow on AMD's cores: v_store_lanes) */
+    /* ub_fmax(t_min, start) as vectors: max where start is a number, else t_min kept */
     for (int h = 0; h < UB_LANES; h += VD_LANES) {
         const vd t_min = vd_load(pr->t_min + h), s = vd_load(start + h);
         vd_store_lanes(pr->t_min + h, vd_ge(s, s), vd_max(t_min, s));

@@ -536,7 +536,7 @@ static void surface(const ub_scene *sc, const ub_de_params *dps, const sample_po
             /* Secondary rays start a few hit thresholds off the surface. */
             bias[l] = 4.0f * (e0[l] + e1[l] * (float)path);
         }
-        /* (not `x = m ? y : x` in the loop: a masked store, slow on AMD's cores; v_store_lanes) */
+        /* (stored through v_store_lanes, not `x = m ? y : x` in the loop: simd_avx2.h) */
         const vm mine_mask = m_from_bits(mine);
         v_store_lanes(sf->bias, mine_mask, v_load(bias));
         v_store_lanes(sf->reflectivity, mine_mask, v_set1(reflectivity));
@@ -809,8 +809,7 @@ static void direct_light(const ub_scene *sc, const ub_de_params *dps, int bounce
                     vis[l] = st.penumbra[l] * st.penumbra[l] * (3.0f - 2.0f * st.penumbra[l]);
             }
         }
-        /* The candidates' sums: every lane computed, the candidates' stored (v_store_lanes: a lane
-         * loop that skips the others is a masked store, slow on AMD's cores). */
+        /* The candidates' sums: every lane computed, the candidates' stored (v_store_lanes). */
         float direct_sum[3][UB_LANES], unshadowed_sum[UB_LANES], lit_sum[UB_LANES];
         UB_VECTOR_LOOP
         for (int l = 0; l < UB_LANES; l++) {
@@ -1267,8 +1266,7 @@ static int add_surface_light(const ub_scene *sc, int bounce, int hit_lanes, cons
             v_store_lanes(ps->pass_ambient[i], hit_mask, v_load(amb[i]));
         }
     }
-    /* The hit lanes' new weights, stored by v_store_lanes (a masked store where compilers see
-     * `x = hit ? y : x` in a lane loop: slow on AMD's cores). */
+    /* The hit lanes' new weights, stored by v_store_lanes. */
     float new_wr[UB_LANES], new_w[UB_LANES];
     for (int l = 0; l < UB_LANES; l++) {
         const int mat = (sf->bsdf_lanes >> l) & 1;

@@ -52,7 +52,7 @@ static inline vm m_andnot_gt(vf a, vf b, vm lanes) { return _mm512_mask_cmp_ps_m
 static inline int m_either(vm a, vm b) { return !_kortestz_mask16_u8(a, b); }
 /* m ? a : b */
 static inline vf v_select(vm m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, a); }
-/* p's lanes m take a, the others keep theirs (simd_avx2.h); a masked store is a plain one here. */
+/* p's lanes m take a, the others keep theirs (simd_avx2.h): a blend by a mask register. */
 static inline void v_store_lanes(float *p, vm m, vf a) { _mm512_storeu_ps(p, _mm512_mask_blend_ps(m, _mm512_loadu_ps(p), a)); }
 /* a + (m ? 1 : 0) */
 static inline vf v_count(vf a, vm m) { return _mm512_mask_add_ps(a, m, a, _mm512_set1_ps(1.0f)); }
